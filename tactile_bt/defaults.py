@@ -29,3 +29,49 @@ TARGET_PRESSURE_PA: float = 2000.0
 CONTACT_THRESHOLD_N: float = 0.008
 #: Samples in the moving average of pressure and orientation (10 samples = 40 ms at 250 Hz).
 SMOOTHING_SAMPLES: int = 10
+
+# --- Servo leaves (gains per feature component; tuned on the simulator) -----------------------
+#: Force (pressure) hold: vz [m/s] per Pa of pressure error, integral per Pa·s, derivative per Pa/s.
+FORCE_KP: float = 2.0e-6
+FORCE_KI: float = 4.0e-6
+FORCE_KD: float = 0.0
+FORCE_LIMIT_MPS: float = 0.02
+#: Contact position (COP) by sliding: vx, vy [m/s] per m of COP error.
+CENTRE_KP: float = 3.0
+CENTRE_KI: float = 0.5
+CENTRE_KD: float = 0.0
+CENTRE_LIMIT_MPS: float = 0.03
+#: COP by rolling: the position command of the rolling rows (m/s per m), turned into rad/s by
+#: dividing by ROLL_RADIUS_M (the inverse task Jacobian's rolling rows).
+ROLL_KP: float = 1.0
+ROLL_KI: float = 0.2
+ROLL_KD: float = 0.0
+ROLL_LIMIT_MPS: float = 0.02
+ROLL_RADIUS_M: float = 0.05
+#: Edge alignment: wz [rad/s] per rad of orientation error.
+ALIGN_KP: float = 4.0
+ALIGN_KI: float = 0.5
+ALIGN_KD: float = 0.0
+ALIGN_LIMIT_RPS: float = 1.0
+
+#: Approach: speed along the pad normal (m/s) and the pressure that ends it (Pa).
+APPROACH_SPEED_MPS: float = 0.01
+APPROACH_PRESSURE_PA: float = 0.4 * TARGET_PRESSURE_PA
+#: Guided slide: default external twist V_ext along the sensor y axis (m/s).
+SLIDE_SPEED_MPS: float = 0.02
+#: Limits on the summed twist of one cycle.
+TWIST_LINEAR_LIMIT_MPS: float = 0.05
+TWIST_ANGULAR_LIMIT_RPS: float = 1.5
+
+# --- Metrics (the columns of the paper's Tables I-III) -----------------------------------------
+#: Convergence bands for the response time, per logged error (Pa, px, px, rad).
+METRIC_BANDS = {
+    "pressure_pa": 0.1 * TARGET_PRESSURE_PA,
+    "cop_x_px": 0.5,
+    "cop_y_px": 0.5,
+    "orientation_rad": 0.0524,  # 3 degrees
+}
+#: Time the error must stay inside its band to count as settled (s).
+METRIC_DWELL_S: float = 0.5
+#: Length of the evaluation window after a controller starts (s): the paper's "until 20 s".
+METRIC_WINDOW_S: float = 20.0

@@ -1,0 +1,208 @@
+"""Shared machinery of the tactile leaves: blackboard keys, the mission clock and the servo base.
+
+Every leaf reads the cycle's data from the blackboard namespace ``/tactile``:
+
+=================  ==================================================================
+key                content
+=================  ==================================================================
+``features``       smoothed :class:`~tactile_bt.features.ContactFeatures` (paper Sec. V)
+``features_raw``   the same before smoothing
+``time``           mission clock in s (never wall time)
+``dt``             control period in s
+``command``        the cycle's :class:`~tactile_bt.control.ServoCommand`
+``pose``           ``T_gs``, 4x4 pose of the sensor frame in the base frame
+``contacts``       the mission's :class:`~tactile_bt.behaviours.record.ContactCloud`
+=================  ==================================================================
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from tactile_bt import defaults
+from tactile_bt.control import PID, feature_error, inverse_task_jacobian
+
+__all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT"]
+
+NAMESPACE = "/tactile"
+KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts")
+_STORAGE = py_trees.blackboard.Blackboard.storage
+_FEATURES, _FEATURES_RAW, _TIME, _POSE = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose"))
+
+#: Name and scale of the logged error of each feature component (metric units: Pa, px, rad).
+METRIC_OF_COMPONENT = {
+    0: ("cop_x_px", 1.0 / defaults.PITCH_M),
+    1: ("cop_y_px", 1.0 / defaults.PITCH_M),
+    2: ("pressure_pa", 1.0),
+    3: ("orientation_rad", 1.0),
+}
+
+
+class TactileBehaviour(py_trees.behaviour.Behaviour):
+    """A py_trees leaf with read access to the cycle data of the ``/tactile`` blackboard.
+
+    Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
+    ``"orientation"``); the mission computes only what the running leaves use.
+    """
+
+    uses: frozenset[str] = frozenset()
+    writes: tuple[str, ...] = ()
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name=name)
+        self.bb = self.attach_blackboard_client(name=name, namespace=NAMESPACE)
+        for key in KEYS:
+            access = Access.WRITE if key in self.writes else Access.READ
+            self.bb.register_key(key=key, access=access)
+
+    # Hot-path reads. The keys are registered with the client above (so py_trees shows who
+    # reads what); the per-cycle values are read straight from the blackboard's storage, which
+    # skips the client's access bookkeeping (several µs per read, every 4 ms cycle).
+    @property
+    def features(self):
+        """Smoothed :class:`~tactile_bt.features.ContactFeatures` of this cycle."""
+        return _STORAGE[_FEATURES]
+
+    @property
+    def features_raw(self):
+        """Unsmoothed features of this cycle."""
+        return _STORAGE[_FEATURES_RAW]
+
+    @property
+    def now(self) -> float:
+        """Mission time in s."""
+        return _STORAGE[_TIME]
+
+    @property
+    def pose(self) -> np.ndarray:
+        """``T_gs`` of this cycle."""
+        return _STORAGE[_POSE]
+
+    def setup(self, **kwargs) -> None:
+        """Bind the mission's constant objects: the control period and the cycle command.
+
+        The mission (or :mod:`tactile_bt.testing`) writes them before calling ``tree.setup()``.
+        """
+        self.dt = float(self.bb.dt)
+        self.command = self.bb.command
+
+
+class ServoLeaf(TactileBehaviour):
+    """Base of every servo primitive: PID on some feature components, one part of Eq. 3.
+
+    A subclass sets ``components`` (indices into Δf = [Δx, Δy, Δp, Δα]) and ``rows`` (the twist
+    rows it drives, i.e. the ones of its projection P_i), and implements :meth:`targets`. While
+    RUNNING the leaf adds ``P_i · J⁻¹ · u`` to the cycle's command. With ``converge`` set it
+    succeeds once every controlled error stays inside ``band`` for ``dwell_s`` seconds;
+    otherwise it runs until its parent stops it.
+
+    Parameters
+    ----------
+    kp, ki, kd : float or list of float
+        PID gains per controlled component (see the subclass for units).
+    output_limit : float or list of float
+        Largest command per component (m/s for positions and force, rad/s for angles).
+    converge : bool
+        Succeed on convergence instead of running forever.
+    band : float or list of float
+        Convergence band per component, in the component's error unit (m, Pa or rad).
+    dwell_s : float
+        Time the errors must stay inside ``band`` (s).
+    """
+
+    components: tuple[int, ...] = ()
+    rows: tuple[int, ...] = ()
+
+    def __init__(
+        self,
+        name: str,
+        kp,
+        ki=0.0,
+        kd=0.0,
+        output_limit=np.inf,
+        converge: bool = False,
+        band=np.inf,
+        dwell_s: float = 0.5,
+        roll_radius: float = 0.05,
+    ) -> None:
+        super().__init__(name)
+        n = len(self.components)
+        self.pid = PID(
+            np.broadcast_to(np.asarray(kp, float), (n,)),
+            ki,
+            kd,
+            output_limit,
+        )
+        P = np.zeros((6, 6))
+        P[list(self.rows), list(self.rows)] = 1.0
+        # Columns of P·J⁻¹ for this leaf's components: a 6×n map from u to the twist part.
+        self._map = (P @ inverse_task_jacobian(roll_radius))[:, list(self.components)]
+        self.converge = bool(converge)
+        self.band = np.broadcast_to(np.asarray(band, float), (n,)).copy()
+        self.dwell_s = float(dwell_s)
+        self._inside_since: float | None = None
+        self.last_error = np.full(n, np.nan)
+        self.last_twist = np.zeros(6)
+
+    # Formatting a message every 4 ms cycle would cost more than the control law, so the
+    # message of a tracking leaf is built only when somebody reads it.
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return self._format_error()
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def _format_error(self) -> str:
+        return "error " + ", ".join(
+            f"{METRIC_OF_COMPONENT[c][0]}={-e * METRIC_OF_COMPONENT[c][1]:+.3g}"
+            for c, e in zip(self.components, self.last_error)
+        )
+
+    # -- to be provided by subclasses -------------------------------------------------------
+    def targets(self) -> tuple[tuple[float, float], float, float]:
+        """``(target_cop (m, m), target_pressure (Pa), target_orientation (rad))``."""
+        raise NotImplementedError
+
+    # -- py_trees life cycle ----------------------------------------------------------------
+    def initialise(self) -> None:
+        self.pid.reset()
+        self._inside_since = None
+        self.last_twist = np.zeros(6)
+
+    def update(self) -> Status:
+        f = self.features
+        cop, pressure, alpha = self.targets()
+        full = feature_error(f, cop, pressure, alpha)
+        error = [full[c] for c in self.components]
+        self.last_error = np.array(error)
+        command = self.command
+        finite = True
+        for comp, e in zip(self.components, error):
+            metric, scale = METRIC_OF_COMPONENT[comp]
+            command.report_error(metric, -e * scale)  # logged as measured − target
+            finite = finite and e == e
+        if not finite:
+            self.last_twist = np.zeros(6)
+            self._inside_since = None
+            self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
+            return Status.RUNNING
+        u = self.pid.update(error, self.dt)
+        self.last_twist = self._map @ u
+        command.add(self.name, self.last_twist)
+        self._feedback = None  # formatted on demand from last_error (see feedback_message)
+        if self.converge:
+            if all(abs(e) <= b for e, b in zip(error, self.band)):
+                if self._inside_since is None:
+                    self._inside_since = self.now
+                if self.now - self._inside_since >= self.dwell_s:
+                    self._feedback = self._format_error() + " (converged)"
+                    return Status.SUCCESS
+            else:
+                self._inside_since = None
+        return Status.RUNNING

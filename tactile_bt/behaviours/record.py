@@ -1,0 +1,93 @@
+"""Contact recording: the robot as a ruler (paper Sec. IV). Each cycle in contact, the centre of
+pressure is carried to the base frame through the forward kinematics ``T_gs``."""
+
+from __future__ import annotations
+
+import numpy as np
+from py_trees.common import Status
+
+from tactile_bt.behaviours.base import TactileBehaviour
+
+__all__ = ["ContactCloud", "RecordContacts"]
+
+
+class ContactCloud:
+    """Growable store of contact samples in the base (world) frame.
+
+    Columns: point ``x, y, z`` (m), outward surface normal ``nx, ny, nz`` (the object's, i.e.
+    −z of the sensor frame), pressure (Pa) and mission time (s).
+    """
+
+    COLUMNS = ("x", "y", "z", "nx", "ny", "nz", "pressure", "t")
+
+    def __init__(self, capacity: int = 1024) -> None:
+        self._data = np.empty((capacity, len(self.COLUMNS)))
+        self._n = 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    def append(self, point, normal, pressure: float, t: float) -> None:
+        if self._n == self._data.shape[0]:
+            self._data = np.concatenate((self._data, np.empty_like(self._data)))
+        row = self._data[self._n]
+        row[0:3] = point
+        row[3:6] = normal
+        row[6] = pressure
+        row[7] = t
+        self._n += 1
+
+    @property
+    def data(self) -> np.ndarray:
+        """``(N, 8)`` array of the samples (a view)."""
+        return self._data[: self._n]
+
+    @property
+    def points(self) -> np.ndarray:
+        return self._data[: self._n, 0:3]
+
+    @property
+    def normals(self) -> np.ndarray:
+        return self._data[: self._n, 3:6]
+
+
+class RecordContacts(TactileBehaviour):
+    """While RUNNING, append the contact point ``T_gs · cop`` of every cycle in contact to the
+    mission's contact cloud (``/tactile/contacts``). Never finishes by itself.
+
+    Parameters
+    ----------
+    min_spacing_m : float
+        Skip a sample closer than this (m) to the previous recorded one (0 keeps all).
+    """
+
+    uses = frozenset({"cop", "pressure"})
+
+    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0) -> None:
+        super().__init__(name)
+        self.min_spacing_m = float(min_spacing_m)
+        self._last: np.ndarray | None = None
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        self.contacts = self.bb.contacts
+
+    def initialise(self) -> None:
+        self._last = None
+
+    def update(self) -> Status:
+        f = self.features_raw
+        cloud = self.contacts
+        if not f.in_contact:
+            self.feedback_message = f"{len(cloud)} contacts, not in contact"
+            return Status.RUNNING
+        T = self.pose
+        cop = f.cop
+        point = T[:3, 0] * cop[0] + T[:3, 1] * cop[1] + T[:3, 3]
+        if self._last is not None and self.min_spacing_m > 0:
+            if np.sum((point - self._last) ** 2) < self.min_spacing_m**2:
+                return Status.RUNNING
+        cloud.append(point, -T[:3, 2], f.pressure, self.now)
+        self._last = point
+        self.feedback_message = f"{len(cloud)} contacts"
+        return Status.RUNNING

@@ -1,0 +1,316 @@
+"""The mission loop: one control cycle per tick, in the order of DESIGN.md.
+
+sense → calibrate → extract → smooth → blackboard → tree tick → ServoController →
+Ad(T_gs) → mount/robot → log. Nothing else reaches across: the tree never talks to the robot.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from tactile_bt import defaults
+from tactile_bt.behaviours import NAMESPACE, TactileBehaviour
+from tactile_bt.behaviours.base import KEYS
+from tactile_bt.behaviours.record import ContactCloud
+from tactile_bt.control import ServoCommand
+from tactile_bt.features import extract
+from tactile_bt.filters import FeatureSmoother
+from tactile_bt.metrics import feature_metrics, path_error
+from tactile_bt.spatial import body_to_spatial
+
+__all__ = ["run_mission", "ControlLoop", "MissionResult", "MissionLog"]
+
+_ERRORS = ("pressure_pa", "cop_x_px", "cop_y_px", "orientation_rad")
+
+
+class MissionLog:
+    """Preallocated per-cycle time series; :meth:`arrays` gives the rows written so far."""
+
+    SCALARS = (
+        "t",
+        "in_contact",
+        "force_n",
+        "area",
+        "pressure_raw_pa",
+        "pressure_pa",
+        "cop_x_px",
+        "cop_y_px",
+        "orientation_raw_rad",
+        "orientation_rad",
+        "penetration_m",
+        *(f"error_{e}" for e in _ERRORS),
+    )
+
+    def __init__(self, n: int) -> None:
+        self.n = 0
+        self.scalars = {k: np.full(n, np.nan) for k in self.SCALARS}
+        self.twist = np.zeros((n, 6))
+        self.position = np.zeros((n, 3))
+        self.rotation = np.zeros((n, 3, 3))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        n = self.n
+        out = {k: v[:n].copy() for k, v in self.scalars.items()}
+        out["twist_s"] = self.twist[:n].copy()
+        out["position_m"] = self.position[:n].copy()
+        out["rotation"] = self.rotation[:n].copy()
+        return out
+
+
+@dataclass
+class MissionResult:
+    """What a mission leaves: the report, every logged series and the recorded contacts.
+
+    Attributes
+    ----------
+    report : dict
+        Same content as ``report.json``.
+    log : dict of numpy arrays
+        Time series keyed by name, all with the ``t`` array's length.
+    contacts : (N, 6) array
+        World points (m) and outward surface normals recorded by ``record_contacts``.
+    contact_data : (N, 8) array
+        The same with pressure (Pa) and mission time (s).
+    """
+
+    report: dict
+    log: dict
+    contact_data: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
+
+    @property
+    def contacts(self) -> np.ndarray:
+        return self.contact_data[:, :6]
+
+    def plot(self, path: str | Path | None = None):
+        """Feature errors against mission time (paper Figs. 8–10, 12b); saved when ``path``."""
+        from tactile_bt.report import plot_errors
+
+        return plot_errors(self, path)
+
+    def save(self, out: str | Path) -> None:
+        """Write report.json, log.npz, errors.png and contacts.ply into ``out``."""
+        from tactile_bt.report import write_outputs
+
+        write_outputs(self, Path(out))
+
+
+def _resolve(tree, scene, overrides):
+    from tactile_bt.loader import load_tree
+    from tactile_bt.sim.scene import Scene, load_scene
+
+    if not isinstance(tree, py_trees.trees.BehaviourTree):
+        tree = load_tree(tree)
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene, list(overrides or ()))
+    return tree, scene
+
+
+def _failure_reason(root: py_trees.behaviour.Behaviour) -> str:
+    failed = [b for b in root.iterate() if b.status == Status.FAILURE and not b.children]
+    if failed:
+        return f"{failed[0].name}: {failed[0].feedback_message}"
+    return root.feedback_message
+
+
+class ControlLoop:
+    """One control cycle of DESIGN.md, without the robot: raw frame → sensor-frame twist.
+
+    calibrate → extract → smooth → blackboard → tree tick → summed twist. Used by the
+    simulated mission, by the hardware loop and by the benchmark, so all three time the same
+    code.
+
+    Parameters
+    ----------
+    tree : py_trees.trees.BehaviourTree
+    calibration : TactelCalibration
+        Raw counts → newtons per tactel.
+    dt : float
+        Control period (s).
+    orientation_method : "moments" or "hough"
+    threshold : float
+        Binarisation threshold (N per tactel).
+    """
+
+    def __init__(self, tree, calibration, dt: float, orientation_method: str = "moments",
+                 threshold: float = defaults.CONTACT_THRESHOLD_N) -> None:
+        self.tree = tree
+        self.calibration = calibration
+        self.dt = float(dt)
+        self.orientation_method = orientation_method
+        self.threshold = float(threshold)
+        self.command = ServoCommand(defaults.TWIST_LINEAR_LIMIT_MPS, defaults.TWIST_ANGULAR_LIMIT_RPS)
+        self.contacts = ContactCloud()
+        self.smoother = FeatureSmoother(defaults.SMOOTHING_SAMPLES)
+        self.writer = py_trees.blackboard.Client(name="mission", namespace=NAMESPACE)
+        for key in KEYS:
+            self.writer.register_key(key=key, access=Access.WRITE)
+        w = self.writer
+        w.command = self.command
+        w.contacts = self.contacts
+        w.dt = self.dt
+        w.time = 0.0
+        w.pose = np.eye(4)
+        w.features = w.features_raw = None
+        tree.setup()
+        leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
+        self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]
+        self.features_raw = None
+        self.features = None
+
+    def cycle(self, raw: np.ndarray, pose: np.ndarray, t: float) -> np.ndarray:
+        """Run one cycle on a raw frame taken at mission time ``t`` (s) with the pad at ``pose``
+        (``T_gs``); returns the sensor-frame twist ``V_s`` to apply."""
+        image = self.calibration.force_from_raw(raw)
+        # Orientation only when a running leaf uses it (a leaf starting this tick sees NaN once).
+        needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
+        f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None)
+        f = self.smoother(f_raw)
+        w = self.writer
+        w.time = t
+        w.pose = pose
+        w.features_raw = f_raw
+        w.features = f
+        self.features_raw, self.features = f_raw, f
+        self.command.clear()
+        self.tree.tick()
+        return self.command.twist()
+
+
+def run_mission(
+    tree,
+    scene,
+    duration: float | None = None,
+    seed: int | None = None,
+    overrides: list[str] | None = None,
+    out: str | Path | None = None,
+    progress: Callable[[float, float], None] | None = None,
+    orientation_method: str = "moments",
+    threshold: float = defaults.CONTACT_THRESHOLD_N,
+) -> MissionResult:
+    """Run a tree against a simulated scene.
+
+    Parameters
+    ----------
+    tree : BehaviourTree or path to a YAML tree
+    scene : Scene or path to a YAML scene
+    duration : float, optional
+        Mission time (s); defaults to the scene's ``duration_s``. The mission also ends when
+        the tree's root succeeds or fails.
+    seed : int, optional
+        Seed of every random draw (sensor characteristics, noise); defaults to the scene's.
+        The same seed gives the same run, bit for bit.
+    overrides : list of ``key.path=value``, optional
+        Scene overrides, as ``--set`` on the command line.
+    out : path, optional
+        Directory for report.json, log.npz, errors.png and contacts.ply.
+    progress : callable(t, duration), optional
+        Called about 20 times per mission second of simulated time.
+    orientation_method : "moments" or "hough"
+    threshold : float
+        Binarisation threshold of the force image (N per tactel).
+    """
+    tree, scene = _resolve(tree, scene, overrides)
+    duration = float(scene.duration_s if duration is None else duration)
+    seed = int(scene.seed if seed is None else seed)
+    rng = np.random.default_rng(seed)
+    world = scene.build_world(rng)
+    dt = 1.0 / scene.rate_hz
+    n_cycles = int(round(duration * scene.rate_hz))
+
+    loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold)
+    contacts = loop.contacts
+
+    log = MissionLog(n_cycles)
+    scalars = log.scalars
+    errors = {e: scalars[f"error_{e}"] for e in _ERRORS}
+    status = "completed"
+    reason = ""
+    progress_every = max(1, int(scene.rate_hz / 20))
+    wall_start = time.perf_counter()
+    try:
+        for k in range(n_cycles):
+            t = k * dt
+            # sense → perceive → tick → controller → Ad(T_gs) → robot
+            pose = world.pose
+            twist_s = loop.cycle(world.sense(), pose, t)
+            world.move(body_to_spatial(pose, twist_s), dt)
+            f_raw, f = loop.features_raw, loop.features
+            command = loop.command
+            # log the cycle
+            scalars["t"][k] = t
+            scalars["in_contact"][k] = f_raw.in_contact
+            scalars["force_n"][k] = f_raw.force
+            scalars["area"][k] = f_raw.area
+            scalars["pressure_raw_pa"][k] = f_raw.pressure
+            scalars["pressure_pa"][k] = f.pressure
+            scalars["cop_x_px"][k] = f_raw.cop_px[0]
+            scalars["cop_y_px"][k] = f_raw.cop_px[1]
+            scalars["orientation_raw_rad"][k] = f_raw.orientation
+            scalars["orientation_rad"][k] = f.orientation
+            scalars["penetration_m"][k] = world.last_penetration
+            for name, value in command.errors.items():
+                errors[name][k] = value
+            log.twist[k] = twist_s
+            log.position[k] = pose[:3, 3]
+            log.rotation[k] = pose[:3, :3]
+            log.n = k + 1
+            if progress is not None and k % progress_every == 0:
+                progress(t, duration)
+            root_status = tree.root.status
+            if root_status == Status.SUCCESS:
+                status = "success"
+                break
+            if root_status == Status.FAILURE:
+                status = "failure"
+                reason = _failure_reason(tree.root)
+                break
+    except BaseException as exc:
+        status = "error"
+        reason = f"{type(exc).__name__}: {exc}"
+        result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt)
+        if out is not None:
+            result.save(out)
+        raise
+    finally:
+        tree.interrupt()
+    result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt)
+    if out is not None:
+        result.save(out)
+    return result
+
+
+def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt) -> MissionResult:
+    wall = time.perf_counter() - wall_start
+    arrays = log.arrays()
+    t = arrays["t"]
+    sim_time = log.n * dt
+    metrics = {}
+    for name in _ERRORS:
+        m = feature_metrics(t, arrays[f"error_{name}"], defaults.METRIC_BANDS[name])
+        if m is not None:
+            metrics[name] = m
+    report = {
+        "tree": getattr(tree, "source", getattr(tree.root, "name", "tree")),
+        "scene": scene.file,
+        "seed": seed,
+        "status": status,
+        "reason": reason,
+        "rate_hz": scene.rate_hz,
+        "sim_time_s": sim_time,
+        "wall_time_s": wall,
+        "real_time_factor": sim_time / wall if wall > 0 else float("inf"),
+        "ticks": log.n,
+        "metrics": metrics,
+        "contacts": len(contacts),
+    }
+    cable = scene.cable
+    if cable is not None:
+        report["path_error_m"] = path_error(contacts.points[:, :2], cable)
+    return MissionResult(report=report, log=arrays, contact_data=contacts.data.copy())

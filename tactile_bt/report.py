@@ -1,0 +1,105 @@
+"""Mission outputs: report.json, log.npz, errors.png and contacts.ply."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from tactile_bt import defaults
+
+__all__ = ["plot_errors", "write_outputs", "write_ply", "read_ply_points"]
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def plot_errors(result, path: str | Path | None = None):
+    """Feature errors against mission time, like the paper's Figs. 8–10 and 12b.
+
+    Three panels: pressure error (in units of the target, the paper's p), COP error (px) and
+    orientation error (deg). The dashed line marks the end of the approach.
+    """
+    import matplotlib
+
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    log = result.log
+    t = log["t"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True, constrained_layout=True)
+    target = defaults.TARGET_PRESSURE_PA
+    ax = axes[0]
+    ax.plot(t, (log["pressure_raw_pa"] - target) / target, color="0.75", lw=0.6, label="raw")
+    ax.plot(t, log["error_pressure_pa"] / target, color="C0", lw=1.2, label="smoothed (controlled)")
+    ax.axhspan(-0.04, 0.04, color="C2", alpha=0.15, label="sensor noise level ±0.04")
+    ax.set_ylabel("pressure error\n(units of target 2 kPa)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[1]
+    ax.plot(t, log["error_cop_x_px"], color="C0", lw=1.0, label="x")
+    ax.plot(t, log["error_cop_y_px"], color="C1", lw=1.0, label="y")
+    ax.set_ylabel("COP error (px)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[2]
+    ax.plot(t, np.rad2deg(log["error_orientation_rad"]), color="C3", lw=1.0)
+    ax.set_ylabel("orientation error (deg)")
+    ax.set_xlabel("mission time (s)")
+    started = np.isfinite(log["error_pressure_pa"]) | np.isfinite(log["error_cop_x_px"])
+    if started.any():
+        t0 = t[int(np.argmax(started))]
+        for ax in axes:
+            ax.axvline(t0, color="0.4", ls="--", lw=0.8)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="k", lw=0.5)
+    report = result.report
+    fig.suptitle(f"{Path(str(report['tree'])).stem} on {Path(str(report['scene'])).stem}: "
+                 f"{report['status']}, seed {report['seed']}", fontsize=10)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+    return fig
+
+
+def write_ply(path: str | Path, data: np.ndarray, names=("x", "y", "z", "nx", "ny", "nz", "pressure", "t")) -> None:
+    """Write an ``(N, k)`` point array as a binary little-endian PLY with float properties."""
+    data = np.ascontiguousarray(data, dtype="<f4")
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(data)}"]
+    header += [f"property float {n}" for n in names[: data.shape[1]]]
+    header.append("end_header")
+    with open(path, "wb") as fh:
+        fh.write(("\n".join(header) + "\n").encode("ascii"))
+        fh.write(data.tobytes())
+
+
+def read_ply_points(path: str | Path) -> tuple[list[str], np.ndarray]:
+    """Read a PLY written by :func:`write_ply`: property names and the ``(N, k)`` array."""
+    raw = Path(path).read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    lines = raw[:end].decode("ascii").splitlines()
+    n = next(int(line.split()[2]) for line in lines if line.startswith("element vertex"))
+    names = [line.split()[2] for line in lines if line.startswith("property")]
+    return names, np.frombuffer(raw[end:], dtype="<f4", count=n * len(names)).reshape(n, len(names))
+
+
+def write_outputs(result, out: Path) -> None:
+    """Write every output file of a mission into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.json").write_text(json.dumps(_jsonable(result.report), indent=2) + "\n")
+    np.savez_compressed(out / "log.npz", **result.log)
+    if len(result.contact_data):
+        write_ply(out / "contacts.ply", result.contact_data)
+    plot_errors(result, out / "errors.png")

@@ -1,0 +1,253 @@
+"""Scene files: YAML → validated :class:`Scene` → :class:`~tactile_bt.sim.world.World`.
+
+A scene lists the pad's sensor parameters, its mount and the objects; every key is checked
+against the schema below, and errors name the file, the line and the field. ``--set`` style
+overrides (``objects.1.stiffness=1e5``) go through the same checks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation
+
+from tactile_bt import defaults
+from tactile_bt.sim.objects import Cable, Table, polyline_from_segments
+from tactile_bt.sim.sensor import SensorModel, SensorParams
+from tactile_bt.sim.world import CartesianMount, World
+from tactile_bt.spatial import make_pose
+from tactile_bt.yamlutil import Located, YamlError, load_located, parse_value, plain
+
+__all__ = ["Scene", "load_scene", "apply_overrides", "SceneError"]
+
+SceneError = YamlError
+
+_NUMBER = "number"
+_INT = "integer"
+_STR = "string"
+
+
+def _vec(n: int) -> str:
+    return f"list of {n} numbers"
+
+
+#: Top-level keys of a scene and their types.
+TOP_LEVEL = {
+    "name": _STR,
+    "description": _STR,
+    "rate_hz": _NUMBER,
+    "duration_s": _NUMBER,
+    "seed": _INT,
+    "sensor": "mapping",
+    "mount": "mapping",
+    "objects": "list",
+}
+SENSOR = {f.name: (_INT if f.type in ("int", int) else _NUMBER) for f in dataclasses.fields(SensorParams)}
+MOUNT = {"type": _STR, "position": _vec(3), "rpy_deg": _vec(3)}
+OBJECTS = {
+    "table": {"type": _STR, "height": _NUMBER, "stiffness": _NUMBER, "friction": _NUMBER},
+    "cable": {
+        "type": _STR,
+        "radius": _NUMBER,
+        "stiffness": _NUMBER,
+        "friction": _NUMBER,
+        "table_height": _NUMBER,
+        "start": _vec(2),
+        "heading_deg": _NUMBER,
+        "path": "list",
+        "points": "list",
+    },
+}
+
+
+def _check(value: Located, kind: str, field_name: str) -> Any:
+    v = value.value
+    if kind == _NUMBER:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise value.error(f"{field_name}: expected a number, got {plain(v)!r}")
+        if not np.isfinite(v):
+            raise value.error(f"{field_name}: expected a finite number, got {v!r}")
+        return float(v)
+    if kind == _INT:
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise value.error(f"{field_name}: expected an integer, got {plain(v)!r}")
+        return v
+    if kind == _STR:
+        if not isinstance(v, str):
+            raise value.error(f"{field_name}: expected a string, got {plain(v)!r}")
+        return v
+    if kind == "mapping":
+        if not isinstance(v, dict):
+            raise value.error(f"{field_name}: expected a mapping")
+        return v
+    if kind == "list":
+        if not isinstance(v, list):
+            raise value.error(f"{field_name}: expected a list")
+        return v
+    if kind.startswith("list of "):
+        n = int(kind.split()[2])
+        if not isinstance(v, list) or len(v) != n:
+            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
+        return [_check(x, _NUMBER, f"{field_name}[{i}]") for i, x in enumerate(v)]
+    raise AssertionError(kind)
+
+
+def _fields(section: Located, schema: dict, where_: str) -> dict:
+    from difflib import get_close_matches
+
+    out = {}
+    for key, value in section.value.items():
+        if key not in schema:
+            hint = get_close_matches(key, list(schema), n=1)
+            loc = section.keys[key]
+            raise loc.error(f"unknown field {where_}{key!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                            + f"; valid fields: {', '.join(sorted(schema))}")
+        out[key] = _check(value, schema[key], where_ + key)
+    return out
+
+
+@dataclass
+class Scene:
+    """A validated scene, ready to build a world."""
+
+    name: str
+    file: str
+    rate_hz: float = defaults.RATE_HZ
+    duration_s: float = 20.0
+    seed: int = 0
+    sensor: SensorParams = field(default_factory=SensorParams)
+    mount_pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+    objects: list = field(default_factory=list)
+    data: dict = field(default_factory=dict)
+
+    def build_world(self, rng: np.random.Generator) -> World:
+        """A fresh world (sensor characteristics drawn from ``rng``)."""
+        return World(self.objects, SensorModel(self.sensor, rng), CartesianMount(self.mount_pose))
+
+    @property
+    def cable(self) -> Cable | None:
+        """The first cable of the scene (its centreline is the ground truth of path metrics)."""
+        return next((o for o in self.objects if isinstance(o, Cable)), None)
+
+
+def _build_object(item: Located, index: int) -> Any:
+    where_ = f"objects.{index}."
+    if not isinstance(item.value, dict) or "type" not in item.value:
+        raise item.error(f"objects.{index}: an object needs a 'type' ({', '.join(OBJECTS)})")
+    kind = _check(item.value["type"], _STR, where_ + "type")
+    if kind not in OBJECTS:
+        from difflib import get_close_matches
+
+        hint = get_close_matches(kind, list(OBJECTS), n=1)
+        raise item.value["type"].error(f"{where_}type: unknown object type {kind!r}"
+                                       + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+    f = _fields(item, OBJECTS[kind], where_)
+    f.pop("type")
+    if kind == "table":
+        return Table(**f)
+    if "points" in f:
+        pts = np.array([_check(p, _vec(2), f"{where_}points[{i}]") for i, p in enumerate(f.pop("points"))])
+        f.pop("path", None)
+    else:
+        if "path" not in f:
+            raise item.error(f"{where_}: a cable needs 'path' (segments) or 'points'")
+        segments = []
+        for i, seg in enumerate(f.pop("path")):
+            s = plain(seg)
+            ok = isinstance(s, dict) and len(s) == 1 and (
+                ("straight" in s and isinstance(s["straight"], (int, float)))
+                or ("arc" in s and isinstance(s["arc"], dict) and set(s["arc"]) == {"radius", "angle_deg"})
+            )
+            if not ok:
+                raise seg.error(f"{where_}path[{i}]: expected {{straight: length_m}} or "
+                                f"{{arc: {{radius: m, angle_deg: deg}}}}, got {s!r}")
+            segments.append(s)
+        pts = polyline_from_segments(f.pop("start", (0.0, 0.0)), f.pop("heading_deg", 0.0), segments)
+    f.pop("start", None)
+    f.pop("heading_deg", None)
+    return Cable(path=pts, **f)
+
+
+def build_scene(root: Located) -> Scene:
+    """Validate a located scene tree and build the :class:`Scene`."""
+    if not isinstance(root.value, dict):
+        raise root.error("a scene must be a mapping")
+    top = _fields(root, TOP_LEVEL, "")
+    scene = Scene(name=top.get("name", Path(root.file).stem), file=root.file, data=plain(root))
+    scene.rate_hz = top.get("rate_hz", defaults.RATE_HZ)
+    scene.duration_s = top.get("duration_s", 20.0)
+    scene.seed = top.get("seed", 0)
+    if scene.rate_hz <= 0 or scene.duration_s <= 0:
+        raise root.error("rate_hz and duration_s must be positive")
+    if "sensor" in top:
+        scene.sensor = SensorParams(**_fields(root.value["sensor"], SENSOR, "sensor."))
+    if "mount" in top:
+        m = _fields(root.value["mount"], MOUNT, "mount.")
+        if m.get("type", "cartesian") != "cartesian":
+            raise root.value["mount"].value["type"].error("mount.type: only 'cartesian' is available")
+        rotation = Rotation.from_euler("xyz", m.get("rpy_deg", (180.0, 0.0, 0.0)), degrees=True)
+        scene.mount_pose = make_pose(rotation, m.get("position", (0.0, 0.0, 0.05)))
+    scene.objects = [_build_object(item, i) for i, item in enumerate(top.get("objects", []))]
+    return scene
+
+
+def apply_overrides(root: Located, overrides: list[str]) -> Located:
+    """Apply ``key.path=value`` overrides (list indices as integers) to a located scene tree.
+
+    The value is parsed as YAML (``1e5`` is a number, ``[0, 1]`` a list). Unknown paths are an
+    error naming the override.
+    """
+    for item in overrides:
+        if "=" not in item:
+            raise YamlError(f"--set {item!r}: expected key.path=value")
+        path, text = item.split("=", 1)
+        try:
+            value = parse_value(text)
+        except yaml.YAMLError as exc:
+            raise YamlError(f"--set {item!r}: invalid value ({exc})") from None
+        node = root
+        parts = path.split(".")
+        for depth, part in enumerate(parts):
+            last = depth == len(parts) - 1
+            container = node.value
+            if isinstance(container, list):
+                if not part.lstrip("-").isdigit() or not -len(container) <= int(part) < len(container):
+                    raise YamlError(f"--set {path}: {'.'.join(parts[:depth]) or 'scene'} has no item {part!r}")
+                key: Any = int(part)
+            elif isinstance(container, dict):
+                key = part
+                if key not in container and not last:
+                    raise YamlError(f"--set {path}: no field {'.'.join(parts[: depth + 1])!r}")
+            else:
+                raise YamlError(f"--set {path}: {'.'.join(parts[:depth])!r} is not a mapping or list")
+            if last:
+                wrapped = _wrap(value, f"--set {path}")
+                container[key] = wrapped
+                if isinstance(container, dict) and hasattr(node, "keys"):
+                    node.keys[key] = Located(key, f"--set {path}", 1, 1)
+            else:
+                node = container[key]
+    return root
+
+
+def _wrap(value: Any, file: str) -> Located:
+    if isinstance(value, dict):
+        loc = Located({k: _wrap(v, file) for k, v in value.items()}, file, 1, 1)
+        loc.keys = {k: Located(k, file, 1, 1) for k in value}  # type: ignore[attr-defined]
+        return loc
+    if isinstance(value, list):
+        return Located([_wrap(v, file) for v in value], file, 1, 1)
+    return Located(value, file, 1, 1)
+
+
+def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
+    """Read, override and validate a scene file."""
+    root = load_located(path)
+    if overrides:
+        apply_overrides(root, overrides)
+    return build_scene(root)

@@ -1,0 +1,189 @@
+"""Simulated 16×16 tactile pad: from the pad's pose among objects to a frame of raw counts.
+
+Pipeline per frame (all in SI units):
+
+1. penetration of sub-tactel sample points of the pad surface into every object (m);
+2. local pressure ``k · depth`` with the object's per-area stiffness in series with the foam
+   (Pa), averaged over each tactel (tactel-integrated force, N);
+3. spread by the foam: a 3×3 kernel, so a point load shows on neighbouring tactels;
+4. per-tactel squashed characteristic (paper Fig. 1) to raw counts, Gaussian noise,
+   12-bit quantisation and saturation.
+
+Perception inverts step 4 with the calibration of the same tactels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tactile_bt import defaults
+from tactile_bt.calibration import TactelCalibration
+
+__all__ = ["SensorParams", "SensorModel"]
+
+
+@dataclass
+class SensorParams:
+    """Parameters of the simulated pad (the scene's ``sensor:`` section).
+
+    Attributes
+    ----------
+    rows, cols : int
+        Tactel grid (16 × 16).
+    pitch : float
+        Tactel pitch (m).
+    subsamples : int
+        Sample points per tactel along each axis for the tactel-integrated force.
+    foam_stiffness : float
+        Per-area stiffness of the pad's foam (Pa/m), in series with the object's.
+    foam_spread : float
+        Share of a tactel's load that the foam passes to each of its four neighbours (0–0.2).
+    calibration_spread : float
+        Relative spread of the tactels' characteristics (0 = identical tactels).
+    noise_counts : float
+        Standard deviation of the noise on every tactel (ADC counts).
+    noise_relative : float
+        Additional noise proportional to a tactel's signal above its offset (fraction).
+    """
+
+    rows: int = defaults.ROWS
+    cols: int = defaults.COLS
+    pitch: float = defaults.PITCH_M
+    subsamples: int = 3
+    foam_stiffness: float = 5.0e6
+    foam_spread: float = 0.12
+    calibration_spread: float = 0.15
+    noise_counts: float = 2.0
+    noise_relative: float = 0.08
+
+
+@dataclass
+class SensorModel:
+    """Turns the pad pose ``T_gs`` and the scene's objects into raw frames.
+
+    Parameters
+    ----------
+    params : SensorParams
+    rng : numpy.random.Generator
+        Source of the tactels' characteristics and the frame noise.
+    """
+
+    params: SensorParams = field(default_factory=SensorParams)
+    rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+
+    def __post_init__(self) -> None:
+        p = self.params
+        if p.calibration_spread > 0:
+            self.calibration = TactelCalibration.random(self.rng, p.rows, p.cols, spread=p.calibration_spread)
+        else:
+            self.calibration = TactelCalibration.nominal(p.rows, p.cols)
+        s = p.subsamples
+        # Tactel (r, c) centre at ((c - 7.5) p, (r - 7.5) p, 0) in the sensor frame, row-major.
+        rr, cc = np.meshgrid(np.arange(p.rows), np.arange(p.cols), indexing="ij")
+        self._centres = np.stack(
+            (((cc - (p.cols - 1) / 2) * p.pitch).ravel(), ((rr - (p.rows - 1) / 2) * p.pitch).ravel(), np.zeros(rr.size)),
+            axis=1,
+        )
+        o = ((np.arange(s) + 0.5) / s - 0.5) * p.pitch
+        oy, ox = np.meshgrid(o, o, indexing="ij")
+        self._offsets = np.stack((ox.ravel(), oy.ravel(), np.zeros(s * s)), axis=1)
+        #: No point of a tactel is farther than this from its centre (m).
+        self._reach = p.pitch * np.sqrt(0.5)
+        self._corners = np.array(
+            [[sx * p.cols * p.pitch / 2, sy * p.rows * p.pitch / 2, 0.0] for sx in (-1, 1) for sy in (-1, 1)]
+        )
+        self.tactel_area = p.pitch * p.pitch
+        self._broad = None
+        self._broad_corners = None
+
+    # ------------------------------------------------------------------------------------
+    #: How far (m) the pad may move before the broad phase is redone.
+    BROAD_PHASE_MARGIN = 1.0e-3
+
+    def invalidate(self) -> None:
+        """Forget the cached broad phase (call when objects move)."""
+        self._broad = None
+
+    def _broad_phase(self, T_gs: np.ndarray, corners: np.ndarray, objects) -> list:
+        """Per object, the tactels that may touch it while the pad stays within the margin.
+
+        The signed distance is 1-Lipschitz, so a tactel whose centre is farther than its
+        half-diagonal plus the margin from an object cannot touch it.
+        """
+        p = self.params
+        R, t = T_gs[:3, :3], T_gs[:3, 3]
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        m = self.BROAD_PHASE_MARGIN
+        centres = None
+        pairs = []
+        for obj in objects:
+            b = obj.bounds()
+            if np.any(hi + m < b[0]) or np.any(lo - m > b[1]):
+                continue
+            if centres is None:
+                centres = self._centres @ R.T + t
+            near = np.flatnonzero(obj.sdf(centres) < self._reach + m)
+            if near.size:
+                local = (self._centres[near][:, None, :] + self._offsets[None, :, :]).reshape(-1, 3)
+                k = 1.0 / (1.0 / p.foam_stiffness + 1.0 / obj.area_stiffness)
+                # scale: mean over the sub-samples times the per-area stiffness times the area
+                pairs.append((obj, near, local, k * self.tactel_area / len(self._offsets)))
+        return pairs
+
+    def force_image(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, float]:
+        """Noise-free tactel forces (N) and the largest penetration (m) for the pad at ``T_gs``.
+
+        A broad phase (cached while the pad moves less than ``BROAD_PHASE_MARGIN``) keeps only
+        the tactels that can touch each object; those are integrated over their sub-samples.
+        """
+        p = self.params
+        R, t = T_gs[:3, :3], T_gs[:3, 3]
+        corners = self._corners @ R.T + t
+        if self._broad is None or abs(corners - self._broad_corners).max() > self.BROAD_PHASE_MARGIN / 2:
+            self._broad = self._broad_phase(T_gs, corners, objects)
+            self._broad_corners = corners
+        force = None
+        deepest = 0.0
+        for obj, near, local, scale in self._broad:
+            depth = -obj.sdf(local @ R.T + t)
+            dmax = float(depth.max())
+            if dmax <= 0.0:
+                continue
+            deepest = max(deepest, dmax)
+            np.maximum(depth, 0.0, out=depth)
+            tactel = depth.reshape(near.size, -1).sum(axis=1) * scale
+            if force is None:
+                force = np.zeros(p.rows * p.cols)
+            force[near] = np.maximum(force[near], tactel)
+        if force is None:
+            return np.zeros((p.rows, p.cols)), 0.0
+        return self.spread(force.reshape(p.rows, p.cols)), deepest
+
+    def spread(self, force: np.ndarray) -> np.ndarray:
+        """Foam spread: each tactel passes ``foam_spread`` of its load to each 4-neighbour.
+
+        Load spread beyond the pad's border is lost, as on the real pad.
+        """
+        a = self.params.foam_spread
+        if a <= 0:
+            return force
+        shared = a * force
+        out = force - 4.0 * shared
+        out[1:, :] += shared[:-1, :]
+        out[:-1, :] += shared[1:, :]
+        out[:, 1:] += shared[:, :-1]
+        out[:, :-1] += shared[:, 1:]
+        return out
+
+    def raw_frame(self, force: np.ndarray) -> np.ndarray:
+        """Raw 12-bit counts (uint16) of a tactel force image, with noise and saturation."""
+        p = self.params
+        clean = self.calibration.raw_from_force(force)
+        sigma = p.noise_counts + p.noise_relative * (clean - self.calibration.offset)
+        noisy = clean + sigma * self.rng.standard_normal(clean.shape)
+        np.rint(noisy, out=noisy)
+        np.maximum(noisy, 0.0, out=noisy)
+        np.minimum(noisy, defaults.ADC_MAX, out=noisy)
+        return noisy.astype(np.uint16)

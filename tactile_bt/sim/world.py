@@ -1,0 +1,65 @@
+"""The simulated world: objects, the pad on its mount, and one step of the control cycle's
+"robot" side (move by a base-frame twist, then sense)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tactile_bt.sim.sensor import SensorModel
+from tactile_bt.spatial import integrate_spatial
+
+__all__ = ["CartesianMount", "World"]
+
+
+class CartesianMount:
+    """An ideal Cartesian mount: the pad follows the commanded base-frame twist exactly.
+
+    Parameters
+    ----------
+    pose : (4, 4) array
+        Initial ``T_gs`` (sensor frame in the base frame).
+    """
+
+    def __init__(self, pose: np.ndarray) -> None:
+        self.pose = np.array(pose, dtype=float)
+
+    def move(self, twist_g: np.ndarray, dt: float) -> None:
+        """Integrate the spatial twist ``twist_g`` ([v; ω], m/s, rad/s) for ``dt`` seconds."""
+        self.pose = integrate_spatial(self.pose, twist_g, dt)
+
+
+class World:
+    """Objects and a pad on a mount.
+
+    Parameters
+    ----------
+    objects : list of SimObject
+    sensor : SensorModel
+    mount : CartesianMount (or any object with ``pose`` and ``move(twist_g, dt)``)
+    """
+
+    def __init__(self, objects, sensor: SensorModel, mount) -> None:
+        self.objects = list(objects)
+        self.sensor = sensor
+        self.mount = mount
+        self.last_force = np.zeros((sensor.params.rows, sensor.params.cols))
+        self.last_penetration = 0.0
+
+    @property
+    def pose(self) -> np.ndarray:
+        """``T_gs``, the pad's pose in the base frame."""
+        return self.mount.pose
+
+    @property
+    def calibration(self):
+        """The calibration of the simulated tactels (what a calibrated real pad would ship)."""
+        return self.sensor.calibration
+
+    def sense(self) -> np.ndarray:
+        """A raw frame (uint16 counts) for the pad's current pose."""
+        self.last_force, self.last_penetration = self.sensor.force_image(self.pose, self.objects)
+        return self.sensor.raw_frame(self.last_force)
+
+    def move(self, twist_g: np.ndarray, dt: float) -> None:
+        """Move the pad by the base-frame twist for ``dt`` seconds."""
+        self.mount.move(twist_g, dt)

@@ -1,0 +1,128 @@
+"""YAML reading that remembers where every value came from, for errors that name file and line."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+import re
+
+import yaml
+
+__all__ = ["Located", "YamlError", "Loader", "load_located", "parse_value", "where"]
+
+
+class Loader(yaml.SafeLoader):
+    """SafeLoader that also reads ``1e5`` and ``1.0e6`` as numbers (YAML 1.2 floats)."""
+
+
+Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.X,
+    ),
+    list("-+0123456789."),
+)
+
+
+def parse_value(text: str):
+    """Parse one YAML scalar or flow value (``--set`` values) with :class:`Loader`."""
+    return yaml.load(text, Loader=Loader)
+
+
+class YamlError(ValueError):
+    """A problem in a YAML file, with ``file:line:column`` in its message."""
+
+    def __init__(self, message: str, file: str | None = None, line: int | None = None, column: int | None = None):
+        self.file, self.line, self.column = file, line, column
+        location = ""
+        if file is not None:
+            location = f"{file}"
+            if line is not None:
+                location += f":{line}"
+                if column is not None:
+                    location += f":{column}"
+            location += ": "
+        super().__init__(location + message)
+
+
+@dataclass
+class Located:
+    """A YAML value together with its position (1-based line and column) in ``file``."""
+
+    value: Any
+    file: str
+    line: int
+    column: int
+
+    def error(self, message: str) -> YamlError:
+        return YamlError(message, self.file, self.line, self.column)
+
+
+def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor) -> Located:
+    mark = node.start_mark
+    if isinstance(node, yaml.MappingNode):
+        out: dict[str, Located] = {}
+        keys: dict[str, Located] = {}
+        for knode, vnode in node.value:
+            key = constructor.construct_object(knode, deep=True)
+            if not isinstance(key, str):
+                raise YamlError(f"keys must be strings, got {key!r}", file, knode.start_mark.line + 1, knode.start_mark.column + 1)
+            if key in out:
+                raise YamlError(f"duplicate key {key!r}", file, knode.start_mark.line + 1, knode.start_mark.column + 1)
+            out[key] = _convert(vnode, file, constructor)
+            keys[key] = Located(key, file, knode.start_mark.line + 1, knode.start_mark.column + 1)
+        located = Located(out, file, mark.line + 1, mark.column + 1)
+        located.keys = keys  # type: ignore[attr-defined]
+        return located
+    if isinstance(node, yaml.SequenceNode):
+        return Located([_convert(v, file, constructor) for v in node.value], file, mark.line + 1, mark.column + 1)
+    return Located(constructor.construct_object(node, deep=True), file, mark.line + 1, mark.column + 1)
+
+
+def load_located(source: str | Path, text: str | None = None) -> Located:
+    """Parse a YAML file (or ``text`` named ``source``) into nested :class:`Located` values.
+
+    Syntax errors become :class:`YamlError` naming the file and line.
+    """
+    file = str(source)
+    if text is None:
+        try:
+            text = Path(source).read_text(encoding="utf-8")
+        except OSError as exc:
+            raise YamlError(f"cannot read: {exc.strerror}", file) from None
+    try:
+        node = yaml.compose(text, Loader=Loader)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark
+        raise YamlError(f"invalid YAML: {exc.problem}", file, mark.line + 1 if mark else None,
+                        mark.column + 1 if mark else None) from None
+    if node is None:
+        raise YamlError("the file is empty", file)
+    constructor = Loader("")
+    try:
+        return _convert(node, file, constructor)
+    except yaml.constructor.ConstructorError as exc:
+        mark = exc.problem_mark
+        raise YamlError(f"invalid value: {exc.problem}", file, mark.line + 1 if mark else None) from None
+
+
+def plain(value: Any) -> Any:
+    """Strip :class:`Located` wrappers recursively."""
+    if isinstance(value, Located):
+        value = value.value
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [plain(v) for v in value]
+    return value
+
+
+def where(value: Located) -> str:
+    """``file:line`` of a located value."""
+    return f"{value.file}:{value.line}"
