@@ -96,12 +96,12 @@ def feature_error(features, target_cop=(0.0, 0.0), target_pressure=0.0, target_o
     """
     if not features.in_contact:
         return (math.nan, math.nan, math.nan, math.nan)
-    cop = features.cop
+    x, y = features.cop.tolist()
     return (
-        target_cop[0] - float(cop[0]),
-        target_cop[1] - float(cop[1]),
+        target_cop[0] - x,
+        target_cop[1] - y,
         target_pressure - features.pressure,
-        float(wrap_half_pi(target_orientation - features.orientation)),
+        wrap_half_pi(target_orientation - features.orientation),
     )
 
 
@@ -149,8 +149,8 @@ class PID:
         """The integral ∫e dt per component (error unit · s)."""
         return np.array(self._integral)
 
-    def update(self, error, dt: float) -> np.ndarray:
-        """Advance by ``dt`` seconds with ``error`` (sequence of n floats); return ``u``."""
+    def update(self, error, dt: float) -> list[float]:
+        """Advance by ``dt`` seconds with ``error`` (sequence of n floats); return ``u`` (list)."""
         u = [0.0] * self.n
         for i in range(self.n):
             e = float(error[i])
@@ -169,7 +169,7 @@ class PID:
             self._previous[i] = e
             v = p_and_d + ki * integral
             u[i] = min(max(v, -lim), lim)
-        return np.array(u)
+        return u
 
 
 def limit_twist(twist: np.ndarray, linear_limit: float, angular_limit: float) -> np.ndarray:
@@ -204,23 +204,26 @@ class ServoCommand:
     def __init__(self, linear_limit: float = 0.05, angular_limit: float = 1.0) -> None:
         self.linear_limit = float(linear_limit)
         self.angular_limit = float(angular_limit)
-        self._sum = np.zeros(6)
+        self._sum = [0.0] * 6
         self.parts: dict[str, np.ndarray] = {}
         self.errors: dict[str, float] = {}
 
     def clear(self) -> None:
         """Start a new cycle: no parts, no errors."""
-        self._sum = np.zeros(6)
+        self._sum = [0.0] * 6
         self.parts.clear()
         self.errors.clear()
 
-    def add(self, source: str, twist: np.ndarray) -> None:
-        """Add a partial sensor-frame twist from the leaf named ``source``."""
-        twist = np.asarray(twist, dtype=float)
-        if twist.shape != (6,) or not math.isfinite(float(twist.sum())):
+    def add(self, source: str, twist) -> None:
+        """Add a partial sensor-frame twist (6 numbers, m/s and rad/s) from the leaf ``source``."""
+        values = twist.tolist() if isinstance(twist, np.ndarray) else [float(v) for v in twist]
+        if len(values) != 6 or not math.isfinite(math.fsum(values)):
             raise ValueError(f"{source}: a twist must be 6 finite numbers, got {twist!r}")
-        self._sum += twist
-        self.parts[source] = self.parts[source] + twist if source in self.parts else twist
+        total = self._sum
+        for i in range(6):
+            total[i] += values[i]
+        previous = self.parts.get(source)
+        self.parts[source] = np.array(values) if previous is None else previous + values
 
     def report_error(self, feature: str, value: float) -> None:
         """Record the error of a controlled feature this cycle (for logs and metrics)."""
@@ -228,4 +231,4 @@ class ServoCommand:
 
     def twist(self) -> np.ndarray:
         """The summed sensor-frame twist of this cycle, within the twist limits."""
-        return limit_twist(self._sum, self.linear_limit, self.angular_limit)
+        return limit_twist(np.array(self._sum), self.linear_limit, self.angular_limit)

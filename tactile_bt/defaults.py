@@ -49,8 +49,8 @@ ROLL_KD: float = 0.0
 ROLL_LIMIT_MPS: float = 0.02
 ROLL_RADIUS_M: float = 0.05
 #: Edge alignment: wz [rad/s] per rad of orientation error.
-ALIGN_KP: float = 4.0
-ALIGN_KI: float = 0.5
+ALIGN_KP: float = 8.0
+ALIGN_KI: float = 8.0
 ALIGN_KD: float = 0.0
 ALIGN_LIMIT_RPS: float = 1.0
 

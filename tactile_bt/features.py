@@ -123,6 +123,8 @@ class ContactFeatures:
         Number of input tactels that were NaN, infinite or negative and were replaced by 0.
     pitch : float
         Tactel pitch in m used for ``pressure`` and ``cop``.
+    image : numpy.ndarray or None
+        The (sanitised) force image the features came from, N per tactel; not copied.
     """
 
     in_contact: bool
@@ -135,6 +137,7 @@ class ContactFeatures:
     mask: np.ndarray
     invalid_tactels: int = 0
     pitch: float = field(default=defaults.PITCH_M)
+    image: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def cop(self) -> np.ndarray:
@@ -340,5 +343,40 @@ def extract(
         mask=mask,
         invalid_tactels=n_bad,
         pitch=pitch,
+        image=img,
     )
+
+
+def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:
+    """Where an elongated contact crosses the pad's centre: ``[x, y]`` in tactels.
+
+    The COP of a curved line contact (a bent cable) lies on the chord, off the line by about
+    ``s² / (6 R)`` for a visible half-length ``s`` and radius of curvature ``R`` (2.7 mm for
+    s = 40 mm, R = 100 mm). This estimate weights the region's force with a triangular window of
+    half-width ``window_px`` along the major axis, centred where the axis passes closest to the
+    pad centre, which shrinks that bias by ``(window / s)²``. Without a defined orientation it
+    is the COP.
+
+    Parameters
+    ----------
+    features : ContactFeatures
+        Features with ``image`` and, for the local estimate, a finite ``orientation``.
+    window_px : float
+        Half-width of the window along the major axis (tactels).
+    """
+    alpha = features.orientation
+    if not features.in_contact or alpha != alpha or features.image is None:
+        return features.cop_px
+    rows, cols = np.nonzero(features.mask)
+    weights = features.image[rows, cols]
+    ux, uy = math.cos(alpha), math.sin(alpha)
+    cx, cy = features.cop_px
+    n_rows, n_cols = features.mask.shape
+    along = (cols - cx) * ux + (rows - cy) * uy
+    centre_along = ((n_cols - 1) * 0.5 - cx) * ux + ((n_rows - 1) * 0.5 - cy) * uy
+    weights = weights * np.maximum(1.0 - np.abs(along - centre_along) / window_px, 0.0)
+    total = weights.sum()
+    if not total > 0.0:
+        return features.cop_px
+    return np.array((weights @ cols / total, weights @ rows / total))
 

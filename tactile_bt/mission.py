@@ -163,6 +163,8 @@ class ControlLoop:
         self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]
         self.features_raw = None
         self.features = None
+        self._storage = py_trees.blackboard.Blackboard.storage
+        self._keys = tuple(f"{NAMESPACE}/{k}" for k in ("time", "pose", "features_raw", "features"))
 
     def cycle(self, raw: np.ndarray, pose: np.ndarray, t: float) -> np.ndarray:
         """Run one cycle on a raw frame taken at mission time ``t`` (s) with the pad at ``pose``
@@ -172,11 +174,13 @@ class ControlLoop:
         needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
         f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None)
         f = self.smoother(f_raw)
-        w = self.writer
-        w.time = t
-        w.pose = pose
-        w.features_raw = f_raw
-        w.features = f
+        # Straight into the blackboard's storage: the keys are registered by ``writer`` above;
+        # the client's access bookkeeping would cost more than the control law (DESIGN budget).
+        storage = self._storage
+        storage[self._keys[0]] = t
+        storage[self._keys[1]] = pose
+        storage[self._keys[2]] = f_raw
+        storage[self._keys[3]] = f
         self.features_raw, self.features = f_raw, f
         self.command.clear()
         self.tree.tick()
@@ -313,4 +317,13 @@ def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt) ->
     cable = scene.cable
     if cable is not None:
         report["path_error_m"] = path_error(contacts.points[:, :2], cable)
+        # The same for the plain centre of pressure of every cycle in contact, for comparison.
+        touching = (arrays["in_contact"] == 1) & np.isfinite(arrays["cop_x_px"])
+        if touching.any():
+            c = (np.stack((arrays["cop_x_px"], arrays["cop_y_px"]), axis=1)[touching]
+                 - (defaults.COLS - 1) / 2) * defaults.PITCH_M
+            R = arrays["rotation"][touching]
+            world = np.einsum("nij,nj->ni", R[:, :, :2], c) + arrays["position_m"][touching]
+            cop_error = path_error(world[:, :2], cable)
+            report["path_error_cop_m"] = {"mean": cop_error["mean"], "max": cop_error["max"]}
     return MissionResult(report=report, log=arrays, contact_data=contacts.data.copy())

@@ -17,6 +17,8 @@ key                content
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import py_trees
 from py_trees.common import Access, Status
@@ -29,6 +31,7 @@ __all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMP
 NAMESPACE = "/tactile"
 KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts")
 _STORAGE = py_trees.blackboard.Blackboard.storage
+_ZERO_TWIST = (0.0,) * 6
 _FEATURES, _FEATURES_RAW, _TIME, _POSE = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose"))
 
 #: Name and scale of the logged error of each feature component (metric units: Pa, px, rad).
@@ -139,12 +142,21 @@ class ServoLeaf(TactileBehaviour):
         P[list(self.rows), list(self.rows)] = 1.0
         # Columns of P·J⁻¹ for this leaf's components: a 6×n map from u to the twist part.
         self._map = (P @ inverse_task_jacobian(roll_radius))[:, list(self.components)]
+        # The same map as (row, coefficient) pairs per component, for the per-cycle hot path.
+        self._rows_of = [[(r, float(self._map[r, j])) for r in range(6) if self._map[r, j] != 0.0]
+                         for j in range(n)]
+        self._metrics = [METRIC_OF_COMPONENT[c] for c in self.components]
         self.converge = bool(converge)
-        self.band = np.broadcast_to(np.asarray(band, float), (n,)).copy()
+        self.band = [float(b) for b in np.broadcast_to(np.asarray(band, float), (n,))]
         self.dwell_s = float(dwell_s)
         self._inside_since: float | None = None
-        self.last_error = np.full(n, np.nan)
-        self.last_twist = np.zeros(6)
+        self.last_error = [math.nan] * n
+        self._last_twist = _ZERO_TWIST
+
+    @property
+    def last_twist(self) -> np.ndarray:
+        """The twist part ``P_i · J⁻¹ · u`` this leaf added in its last tick (sensor frame)."""
+        return np.array(self._last_twist, dtype=float)
 
     # Formatting a message every 4 ms cycle would cost more than the control law, so the
     # message of a tracking leaf is built only when somebody reads it.
@@ -173,28 +185,31 @@ class ServoLeaf(TactileBehaviour):
     def initialise(self) -> None:
         self.pid.reset()
         self._inside_since = None
-        self.last_twist = np.zeros(6)
+        self._last_twist = _ZERO_TWIST
 
     def update(self) -> Status:
-        f = self.features
+        f = _STORAGE[_FEATURES]
         cop, pressure, alpha = self.targets()
         full = feature_error(f, cop, pressure, alpha)
         error = [full[c] for c in self.components]
-        self.last_error = np.array(error)
+        self.last_error = error
         command = self.command
         finite = True
-        for comp, e in zip(self.components, error):
-            metric, scale = METRIC_OF_COMPONENT[comp]
-            command.report_error(metric, -e * scale)  # logged as measured − target
+        for (metric, scale), e in zip(self._metrics, error):
+            command.errors[metric] = -e * scale  # logged as measured − target, metric units
             finite = finite and e == e
         if not finite:
-            self.last_twist = np.zeros(6)
+            self._last_twist = _ZERO_TWIST
             self._inside_since = None
             self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
             return Status.RUNNING
         u = self.pid.update(error, self.dt)
-        self.last_twist = self._map @ u
-        command.add(self.name, self.last_twist)
+        twist = [0.0] * 6
+        for rows, uj in zip(self._rows_of, u):
+            for r, coefficient in rows:
+                twist[r] += coefficient * uj
+        self._last_twist = twist
+        command.add(self.name, twist)
         self._feedback = None  # formatted on demand from last_error (see feedback_message)
         if self.converge:
             if all(abs(e) <= b for e, b in zip(error, self.band)):

@@ -7,6 +7,7 @@ import numpy as np
 from py_trees.common import Status
 
 from tactile_bt.behaviours.base import TactileBehaviour
+from tactile_bt.features import local_contact_point
 
 __all__ = ["ContactCloud", "RecordContacts"]
 
@@ -59,12 +60,21 @@ class RecordContacts(TactileBehaviour):
     ----------
     min_spacing_m : float
         Skip a sample closer than this (m) to the previous recorded one (0 keeps all).
+    point : str
+        ``"cop"``: the centre of pressure (Eq. 1). ``"local"``: where an elongated contact
+        crosses the pad centre (:func:`~tactile_bt.features.local_contact_point`), which removes
+        the chord bias of the COP on curved lines such as a bent cable; needs the orientation.
     """
 
     uses = frozenset({"cop", "pressure"})
 
-    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0) -> None:
+    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0, point: str = "cop") -> None:
         super().__init__(name)
+        if point not in ("cop", "local"):
+            raise ValueError(f"{name}: point must be 'cop' or 'local', got {point!r}")
+        self.point = point
+        if point == "local":
+            self.uses = frozenset({"cop", "pressure", "orientation"})
         self.min_spacing_m = float(min_spacing_m)
         self._last: np.ndarray | None = None
 
@@ -82,7 +92,11 @@ class RecordContacts(TactileBehaviour):
             self.feedback_message = f"{len(cloud)} contacts, not in contact"
             return Status.RUNNING
         T = self.pose
-        cop = f.cop
+        if self.point == "local":
+            px = local_contact_point(f)
+            cop = (px - ((f.mask.shape[1] - 1) * 0.5, (f.mask.shape[0] - 1) * 0.5)) * f.pitch
+        else:
+            cop = f.cop
         point = T[:3, 0] * cop[0] + T[:3, 1] * cop[1] + T[:3, 3]
         if self._last is not None and self.min_spacing_m > 0:
             if np.sum((point - self._last) ** 2) < self.min_spacing_m**2:

@@ -222,7 +222,11 @@ def apply_overrides(root: Located, overrides: list[str]) -> Located:
             elif isinstance(container, dict):
                 key = part
                 if key not in container and not last:
-                    raise YamlError(f"--set {path}: no field {'.'.join(parts[: depth + 1])!r}")
+                    # A section the file leaves out (e.g. sensor:) is created; the schema check
+                    # below still rejects names that do not exist.
+                    container[key] = _wrap({}, f"--set {path}")
+                    if hasattr(node, "keys"):
+                        node.keys[key] = Located(key, f"--set {path}", 1, 1)
             else:
                 raise YamlError(f"--set {path}: {'.'.join(parts[:depth])!r} is not a mapping or list")
             if last:

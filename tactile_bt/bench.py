@@ -1,0 +1,165 @@
+"""Speed figures of ``tactile-bt bench``, each a ratio measured within one run.
+
+* feature extraction: :func:`tactile_bt.features.extract` against the obvious scikit-image
+  ``label`` + ``regionprops`` implementation of the same features, on the same frames;
+* one control cycle (calibration, features, smoothing, tree tick, summed twist) against the
+  526 µs frame period of the sensor at 1.9 kHz;
+* the closed-loop cable mission against real time at 250 Hz, with where the time goes.
+
+Times are the median of repeated runs (``time.perf_counter``); nothing here asserts a time.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tactile_bt import defaults
+
+__all__ = ["run_bench", "format_bench"]
+
+ROOT = Path(__file__).resolve().parent.parent
+TREE = ROOT / "trees" / "cable_follow.yaml"
+SCENE = ROOT / "sim" / "cable.yaml"
+
+
+def _per_call(fn, repeats: int, number: int) -> float:
+    """Median over ``repeats`` of the mean time (s) of ``number`` calls."""
+    fn()
+    samples = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        samples.append((time.perf_counter() - t0) / number)
+    return float(np.median(samples))
+
+
+def _cable_frames(n: int = 32):
+    """Raw frames and calibration of the pad pressing on the cable, at several poses."""
+    from tactile_bt.sim.scene import load_scene
+
+    scene = load_scene(SCENE)
+    world = scene.build_world(np.random.default_rng(0))
+    T = world.pose.copy()
+    rng = np.random.default_rng(1)
+    frames = []
+    for _ in range(n):
+        pose = T.copy()
+        pose[:3, 3] = (rng.uniform(-0.006, 0.006), rng.uniform(0.03, 0.06), 0.0052)
+        world.mount.pose = pose
+        frames.append(world.sense())
+    return frames, world.calibration
+
+
+def bench_features(repeats: int = 7, number: int = 200) -> dict:
+    from tactile_bt.features import extract
+    from tactile_bt.perception_baseline import extract_with_regionprops
+
+    frames, calibration = _cable_frames()
+    images = [calibration.force_from_raw(f) for f in frames]
+    it = iter(range(1 << 62))
+
+    def ours():
+        extract(images[next(it) % len(images)])
+
+    def baseline():
+        extract_with_regionprops(images[next(it) % len(images)], defaults.CONTACT_THRESHOLD_N)
+
+    def hough():
+        extract(images[next(it) % len(images)], method="hough")
+
+    t_ours = _per_call(ours, repeats, number)
+    t_base = _per_call(baseline, repeats, max(1, number // 5))
+    t_hough = _per_call(hough, repeats, max(1, number // 5))
+    return {
+        "extract_moments_us": t_ours * 1e6,
+        "extract_hough_us": t_hough * 1e6,
+        "regionprops_baseline_us": t_base * 1e6,
+        "speedup_vs_regionprops": t_base / t_ours,
+        "target_speedup": 4.0,
+    }
+
+
+def bench_control_cycle(repeats: int = 7, number: int = 500) -> dict:
+    from tactile_bt.loader import load_tree
+    from tactile_bt.mission import ControlLoop
+
+    frames, calibration = _cable_frames()
+    tree = load_tree(TREE)
+    loop = ControlLoop(tree, calibration, 1.0 / defaults.RATE_HZ)
+    pose = np.eye(4)
+    state = {"k": 0}
+
+    def cycle():
+        k = state["k"]
+        loop.cycle(frames[k % len(frames)], pose, k / defaults.RATE_HZ)
+        state["k"] = k + 1
+
+    for _ in range(50):  # past the approach: the servo leaves are running
+        cycle()
+    t = _per_call(cycle, repeats, number)
+    period = 1.0 / defaults.MAX_SENSOR_RATE_HZ
+    return {
+        "control_cycle_us": t * 1e6,
+        "frame_period_1900hz_us": period * 1e6,
+        "share_of_frame_period": t / period,
+    }
+
+
+def bench_mission(duration: float = 20.0) -> dict:
+    """Closed-loop cable mission; the time split between simulator and control loop."""
+    from tactile_bt.loader import load_tree
+    from tactile_bt.mission import ControlLoop, run_mission
+    from tactile_bt.sim.scene import load_scene
+    from tactile_bt.spatial import body_to_spatial
+
+    result = run_mission(TREE, SCENE, duration=duration, seed=0)
+    # Where the time goes: the same loop, timed per stage.
+    scene = load_scene(SCENE)
+    world = scene.build_world(np.random.default_rng(0))
+    loop = ControlLoop(load_tree(TREE), world.calibration, 1.0 / scene.rate_hz)
+    stages = np.zeros(3)
+    n = int(min(duration, 10.0) * scene.rate_hz)
+    for k in range(n):
+        t0 = time.perf_counter()
+        raw = world.sense()
+        t1 = time.perf_counter()
+        pose = world.pose
+        twist = loop.cycle(raw, pose, k / scene.rate_hz)
+        t2 = time.perf_counter()
+        world.move(body_to_spatial(pose, twist), 1.0 / scene.rate_hz)
+        stages += (t1 - t0, t2 - t1, time.perf_counter() - t2)
+    stages = stages / n * 1e6
+    return {
+        "mission_real_time_factor": result.report["real_time_factor"],
+        "mission_sim_time_s": result.report["sim_time_s"],
+        "mission_wall_time_s": result.report["wall_time_s"],
+        "target_real_time_factor": 25.0,
+        "per_cycle_us": {"simulated_sensor": stages[0], "control_loop": stages[1], "robot_move": stages[2]},
+    }
+
+
+def run_bench(quick: bool = False) -> dict:
+    """All speed figures; ``quick`` uses fewer repetitions and a shorter mission."""
+    repeats = 3 if quick else 7
+    return {
+        "features": bench_features(repeats, 100 if quick else 300),
+        "control_cycle": bench_control_cycle(repeats, 200 if quick else 1000),
+        "cable_mission": bench_mission(5.0 if quick else 20.0),
+    }
+
+
+def format_bench(figures: dict) -> str:
+    f, c, m = figures["features"], figures["control_cycle"], figures["cable_mission"]
+    lines = [
+        f"feature extraction  {f['extract_moments_us']:7.1f} µs  vs regionprops {f['regionprops_baseline_us']:7.1f} µs"
+        f"  → {f['speedup_vs_regionprops']:.1f}x faster (target ≥ {f['target_speedup']:.0f}x)",
+        f"                    Hough orientation {f['extract_hough_us']:.1f} µs",
+        f"control cycle       {c['control_cycle_us']:7.1f} µs  = {c['share_of_frame_period']:.0%} of the 1.9 kHz frame period",
+        f"cable mission       {m['mission_real_time_factor']:7.1f}x real time at 250 Hz (target ≥ {m['target_real_time_factor']:.0f}x)",
+        "  per cycle: " + ", ".join(f"{k} {v:.0f} µs" for k, v in m["per_cycle_us"].items()),
+    ]
+    return "\n".join(lines)
