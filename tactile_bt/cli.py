@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 __all__ = ["main"]
 
 
@@ -71,6 +73,15 @@ def _cmd_tree(args) -> int:
     return 0
 
 
+def _cmd_view(args) -> int:
+    from tactile_bt.view import render_mission
+
+    png = render_mission(args.dir, args.png)
+    if png is not None:
+        print(f"rendered {png}")
+    return 0
+
+
 def _cmd_bench(args) -> int:
     from tactile_bt.bench import run_bench
 
@@ -87,9 +98,39 @@ def _cmd_bench(args) -> int:
 def _cmd_accuracy(args) -> int:
     from tactile_bt.synthetic import cop_accuracy, orientation_comparison
 
-    result = {"orientation": orientation_comparison(trials=args.trials, seed=args.seed),
-              "cop": cop_accuracy(trials=args.trials, seed=args.seed)}
-    print(json.dumps(result, indent=2, default=float))
+    orientation = orientation_comparison(trials=args.trials, seed=args.seed)
+    cop = cop_accuracy(trials=args.trials, seed=args.seed)
+    if args.json:
+        print(json.dumps({"orientation": orientation, "cop": cop}, indent=2, default=float))
+    else:
+        angles = orientation["angles_deg"]
+        print(f"Orientation, mean absolute error (deg) over {orientation['trials']} line contacts per angle "
+              f"(seed {args.seed}):\n")
+        print("| method | " + " | ".join(f"{a:g}°" for a in angles) + " | worst frame |")
+        print("|---" * (len(angles) + 2) + "|")
+        for method in ("moments", "hough"):
+            row = " | ".join(f"{e:.2f}" for e in orientation[method])
+            print(f"| {method} | {row} | {orientation[method + '_max']:.2f} |")
+        print(f"\nCentre of pressure, RMS error (tactels): lines {cop['line_rms_px']:.3f} "
+              f"(max {cop['line_max_px']:.3f}), blobs {cop['blob_rms_px']:.3f} (max {cop['blob_max_px']:.3f})")
+    if args.png:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        angles = np.asarray(orientation["angles_deg"])
+        x = np.arange(len(angles))
+        fig, ax = plt.subplots(figsize=(7, 3.5), constrained_layout=True)
+        ax.bar(x - 0.2, orientation["hough"], 0.4, label="Hough", color="C2")
+        ax.bar(x + 0.2, orientation["moments"], 0.4, label="image moments", color="C3")
+        ax.set_xticks(x, [f"{a:g}" for a in angles])
+        ax.set_xlabel("line angle (deg)")
+        ax.set_ylabel("abs. error (deg)")
+        ax.set_title("Orientation error on simulated line contacts (cf. paper Fig. 4)", fontsize=10)
+        ax.legend()
+        fig.savefig(args.png, dpi=110)
+        print(f"figure written to {args.png}")
     return 0
 
 
@@ -114,6 +155,11 @@ def build_parser() -> argparse.ArgumentParser:
     tree.add_argument("--dot", default=None, help="also write a Graphviz dot file")
     tree.set_defaults(func=_cmd_tree)
 
+    view = sub.add_parser("view", help="show a mission's contacts, path and scene in 3-D")
+    view.add_argument("dir", help="output directory of 'tactile-bt run'")
+    view.add_argument("--png", default=None, help="render off screen into this PNG instead of a window")
+    view.set_defaults(func=_cmd_view)
+
     bench = sub.add_parser("bench", help="speed figures, as ratios measured in one run")
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
@@ -122,6 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
     acc.add_argument("--trials", type=int, default=20)
     acc.add_argument("--seed", type=int, default=0)
+    acc.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    acc.add_argument("--png", default=None, help="also draw the comparison like the paper's Fig. 4")
     acc.set_defaults(func=_cmd_accuracy)
 
     try:

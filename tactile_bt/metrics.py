@@ -33,8 +33,7 @@ def response_time(t: np.ndarray, error: np.ndarray, band: float, dwell: float = 
     starts = np.flatnonzero(edges == 1)
     ends = np.flatnonzero(edges == -1)  # exclusive
     for s, e in zip(starts, ends):
-        run_end_time = t[e - 1] if e < len(t) else np.inf  # a run lasting to the end counts
-        if run_end_time - t[s] >= dwell or e == len(t):
+        if t[e - 1] - t[s] >= dwell:
             return float(t[s] - t[0])
     return float("nan")
 

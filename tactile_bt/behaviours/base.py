@@ -145,6 +145,9 @@ class ServoLeaf(TactileBehaviour):
         # The same map as (row, coefficient) pairs per component, for the per-cycle hot path.
         self._rows_of = [[(r, float(self._map[r, j])) for r in range(6) if self._map[r, j] != 0.0]
                          for j in range(n)]
+        # Components with no row in P·J⁻¹ are not controlled (e.g. a tactile_servo whose P
+        # leaves them out): they neither gate the leaf on NaN nor appear in the error log.
+        self._active = [j for j in range(n) if self._rows_of[j]]
         self._metrics = [METRIC_OF_COMPONENT[c] for c in self.components]
         self.converge = bool(converge)
         self.band = [float(b) for b in np.broadcast_to(np.asarray(band, float), (n,))]
@@ -195,7 +198,9 @@ class ServoLeaf(TactileBehaviour):
         self.last_error = error
         command = self.command
         finite = True
-        for (metric, scale), e in zip(self._metrics, error):
+        for j in self._active:
+            e = error[j]
+            metric, scale = self._metrics[j]
             command.errors[metric] = -e * scale  # logged as measured − target, metric units
             finite = finite and e == e
         if not finite:

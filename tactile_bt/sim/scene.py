@@ -28,6 +28,8 @@ __all__ = ["Scene", "load_scene", "apply_overrides", "SceneError"]
 SceneError = YamlError
 
 _NUMBER = "number"
+_POSITIVE = "positive number"
+_NONNEGATIVE = "non-negative number"
 _INT = "integer"
 _STR = "string"
 
@@ -40,22 +42,23 @@ def _vec(n: int) -> str:
 TOP_LEVEL = {
     "name": _STR,
     "description": _STR,
-    "rate_hz": _NUMBER,
-    "duration_s": _NUMBER,
+    "rate_hz": _POSITIVE,
+    "duration_s": _POSITIVE,
     "seed": _INT,
     "sensor": "mapping",
     "mount": "mapping",
     "objects": "list",
 }
-SENSOR = {f.name: (_INT if f.type in ("int", int) else _NUMBER) for f in dataclasses.fields(SensorParams)}
+SENSOR = {f.name: (_INT if f.type in ("int", int) else _NONNEGATIVE) for f in dataclasses.fields(SensorParams)}
+SENSOR.update(pitch=_POSITIVE, foam_stiffness=_POSITIVE)
 MOUNT = {"type": _STR, "position": _vec(3), "rpy_deg": _vec(3)}
 OBJECTS = {
-    "table": {"type": _STR, "height": _NUMBER, "stiffness": _NUMBER, "friction": _NUMBER},
+    "table": {"type": _STR, "height": _NUMBER, "stiffness": _POSITIVE, "friction": _NONNEGATIVE},
     "cable": {
         "type": _STR,
-        "radius": _NUMBER,
-        "stiffness": _NUMBER,
-        "friction": _NUMBER,
+        "radius": _POSITIVE,
+        "stiffness": _POSITIVE,
+        "friction": _NONNEGATIVE,
         "table_height": _NUMBER,
         "start": _vec(2),
         "heading_deg": _NUMBER,
@@ -73,6 +76,11 @@ def _check(value: Located, kind: str, field_name: str) -> Any:
         if not np.isfinite(v):
             raise value.error(f"{field_name}: expected a finite number, got {v!r}")
         return float(v)
+    if kind in (_POSITIVE, _NONNEGATIVE):
+        x = _check(value, _NUMBER, field_name)
+        if x < 0 or (kind == _POSITIVE and x == 0):
+            raise value.error(f"{field_name}: expected a {kind}, got {x!r}")
+        return x
     if kind == _INT:
         if isinstance(v, bool) or not isinstance(v, int):
             raise value.error(f"{field_name}: expected an integer, got {plain(v)!r}")
@@ -216,9 +224,13 @@ def apply_overrides(root: Located, overrides: list[str]) -> Located:
             last = depth == len(parts) - 1
             container = node.value
             if isinstance(container, list):
-                if not part.lstrip("-").isdigit() or not -len(container) <= int(part) < len(container):
-                    raise YamlError(f"--set {path}: {'.'.join(parts[:depth]) or 'scene'} has no item {part!r}")
-                key: Any = int(part)
+                try:
+                    key: Any = int(part)
+                except ValueError:
+                    key = None
+                if key is None or not -len(container) <= key < len(container):
+                    raise YamlError(f"--set {path}: {'.'.join(parts[:depth]) or 'scene'} has no item {part!r} "
+                                    f"(valid: 0 to {len(container) - 1}, or negative from the end)")
             elif isinstance(container, dict):
                 key = part
                 if key not in container and not last:

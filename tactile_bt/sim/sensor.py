@@ -115,6 +115,7 @@ class SensorModel:
         self.tactel_area = p.pitch * p.pitch
         self._broad = None
         self._broad_corners = None
+        self._broad_objects = None
         self._spread_rows = self._spread_cols = None
         if p.foam_spread > 0:
             self._spread_rows = _gaussian_band(p.rows, p.foam_spread)
@@ -163,9 +164,11 @@ class SensorModel:
         p = self.params
         R, t = T_gs[:3, :3], T_gs[:3, 3]
         corners = self._corners @ R.T + t
-        if self._broad is None or abs(corners - self._broad_corners).max() > self.BROAD_PHASE_MARGIN / 2:
+        if (self._broad is None or objects is not self._broad_objects
+                or abs(corners - self._broad_corners).max() > self.BROAD_PHASE_MARGIN / 2):
             self._broad = self._broad_phase(T_gs, corners, objects)
             self._broad_corners = corners
+            self._broad_objects = objects
         force = None
         deepest = 0.0
         for obj, near, local, scale in self._broad:

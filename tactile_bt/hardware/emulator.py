@@ -1,0 +1,426 @@
+"""A tactile module emulated behind a pseudo-terminal pair, with fault injection.
+
+The emulator opens a pty pair with :func:`os.openpty`; a driver opens the slave path
+(:attr:`DeviceEmulator.port`) exactly as it would open ``/dev/ttyACM0``.  A thread reads host
+commands from the master side, answers the configuration request, and while streaming writes
+one data datagram per period from its frame source.  :meth:`DeviceEmulator.push` sends one
+given frame immediately (the closed-loop mission renders a frame, pushes it, and reads it back).
+
+Faults (:class:`FaultConfig`) damage the byte stream the way real lines do.  Everything sent is
+logged in :attr:`DeviceEmulator.log`, so tests can check the driver's frames and counters
+against the ground truth.  To keep that ground truth exact, garbage never contains ``0xF0``,
+bit flips hit only bytes after the datagram id and never create a new header pattern, tears
+keep at least header and id, and a header pattern is only planted in undamaged frames that no
+garbage follows (the parser drops a frame that carries a datagram start and is followed by
+junk: on a real line that is far more often a torn datagram passing the checksum by chance).
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import sys
+import threading
+import time
+import tty
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Callable, Iterable, Iterator
+
+import numpy as np
+
+from tactile_bt.defaults import ADC_MAX, COLS, MAX_SENSOR_RATE_HZ, ROWS
+from tactile_bt.hardware import protocol as P
+
+FrameSource = Callable[[], np.ndarray] | Iterable[np.ndarray] | str | Path | None
+_GARBAGE_ALPHABET = np.array([b for b in range(256) if b != P.HDR1], dtype=np.uint8)
+
+
+@dataclass
+class FaultConfig:
+    """Per-frame fault probabilities (0..1) of the emulated line.
+
+    ``garbage``: a burst of 1..``garbage_max`` random bytes after the frame; ``bitflip``: one
+    flipped bit; ``tear``: the datagram is cut short; ``pause``: the line goes quiet for
+    ``pause_s`` seconds after the frame; ``header``: the payload carries ``F0 C4 <id>`` in its
+    non-data bits (the frame stays valid).  At most one of bitflip/tear/header per frame.
+    """
+
+    garbage: float = 0.0
+    bitflip: float = 0.0
+    tear: float = 0.0
+    pause: float = 0.0
+    header: float = 0.0
+    garbage_max: int = 64
+    pause_s: float = 0.01
+
+    @classmethod
+    def parse(cls, spec: str | None) -> "FaultConfig":
+        """Parse ``"garbage=0.01,bitflip=0.01,tear=0.01,pause=0.001,header=0.05"``.
+
+        ``all=P`` sets the five probabilities at once.
+        """
+        cfg = cls()
+        names = {f.name: f.type for f in fields(cls)}
+        for item in filter(None, (s.strip() for s in (spec or "").split(","))):
+            key, _, value = item.partition("=")
+            key = key.strip()
+            try:
+                number = float(value)
+            except ValueError:
+                raise ValueError(f"fault spec {item!r}: expected name=number") from None
+            if key == "all":
+                for name in ("garbage", "bitflip", "tear", "pause", "header"):
+                    setattr(cfg, name, number)
+            elif key in names:
+                setattr(cfg, key, int(number) if key == "garbage_max" else number)
+            else:
+                raise ValueError(f"unknown fault {key!r}; known: all, {', '.join(names)}")
+        return cfg
+
+
+@dataclass(eq=False)
+class SentFrame:
+    """Ground truth of one emitted frame: values as the driver must decode them."""
+
+    index: int
+    values: np.ndarray
+    device_timestamp: int
+    fault: str | None = None  #: "bitflip" or "tear" (damaged), else None
+    header_pattern: bool = False  #: a header pattern was planted in the payload
+    pushed: bool = False
+
+
+@dataclass
+class EmulatorLog:
+    """What the emulator sent, in order: ``events`` is a list of ``(kind, value)`` with kinds
+    ``frame`` (index into ``frames``), ``garbage`` (bytes) and ``pause`` (seconds)."""
+
+    frames: list[SentFrame] = field(default_factory=list)
+    events: list[tuple[str, float]] = field(default_factory=list)
+    garbage_bytes: int = 0
+
+    def intact(self) -> list[SentFrame]:
+        """Frames sent undamaged: the driver must deliver exactly these."""
+        return [f for f in self.frames if f.fault is None]
+
+    def damaged(self) -> list[SentFrame]:
+        """Frames sent damaged: the driver must drop exactly these."""
+        return [f for f in self.frames if f.fault is not None]
+
+    def expected_resyncs(self) -> int:
+        """Runs of garbage/damaged frames that end in an intact frame (one resync each)."""
+        runs, in_run = 0, False
+        for kind, value in self.events:
+            if kind == "garbage" or (kind == "frame" and self.frames[int(value)].fault):
+                in_run = True
+            elif kind == "frame":
+                runs += in_run
+                in_run = False
+        return runs
+
+
+def synthetic_source(rows: int = ROWS, cols: int = COLS, rate_hz: float = MAX_SENSOR_RATE_HZ,
+                     seed: int = 0) -> Iterator[np.ndarray]:
+    """Endless raw-count frames: a noisy contact blob circling the pad centre every 4 s."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:rows, 0:cols].astype(float)
+    k = 0
+    while True:
+        t = k / rate_hz
+        cx = (cols - 1) / 2 + 0.25 * cols * np.cos(0.5 * np.pi * t)
+        cy = (rows - 1) / 2 + 0.25 * rows * np.sin(0.5 * np.pi * t)
+        img = 40.0 + 2500.0 * np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / 4.5) + rng.normal(0.0, 8.0, (rows, cols))
+        yield np.clip(np.rint(img), 0, ADC_MAX).astype(np.uint16)
+        k += 1
+
+
+def _recording_source(path: str | Path, loop: bool) -> Iterator[np.ndarray]:
+    from tactile_bt.hardware.recording import iter_chunks
+
+    while True:
+        n = 0
+        for chunk in iter_chunks(path):
+            n += len(chunk.values)
+            yield from chunk.values
+        if not loop or n == 0:
+            return
+
+
+def as_counts(values: object, rows: int, cols: int) -> np.ndarray:
+    """Validate a frame: (rows, cols) integers in 0..4095 -> uint16 array (a copy)."""
+    arr = np.asarray(getattr(values, "values", values))
+    if arr.shape != (rows, cols):
+        raise ValueError(f"frame shape {arr.shape}, expected ({rows}, {cols})")
+    if arr.dtype.kind == "f":
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("frame contains NaN or infinite values")
+        arr = np.rint(arr)
+    if arr.size and (arr.min() < 0 or arr.max() > ADC_MAX):
+        raise ValueError(f"raw counts must lie in 0..{ADC_MAX}, got {arr.min()}..{arr.max()}")
+    return arr.astype(np.uint16)
+
+
+class DeviceEmulator:
+    """An emulated tactile module on a pseudo-terminal; open :attr:`port` with the driver.
+
+    Parameters
+    ----------
+    source
+        Frames to stream: a callable returning a (rows, cols) raw-count array, an iterable of
+        arrays, the path of a recording (looped when ``loop``), or ``None`` for push only.
+    rate_hz
+        Streaming rate in Hz until the host sets a period.
+    rows, cols, cell_order
+        Array shape and device cell order (as for the driver).
+    sensor_id, device_id, sensor_type
+        Identity announced in the configuration answer.
+    faults
+        Fault injection (:class:`FaultConfig` or a spec string); ``None`` for a clean line.
+    seed
+        Seed of the fault generator (same seed, same faults for the same frames).
+    keep_log
+        Keep the ground truth of every frame in :attr:`log` (off for long CLI runs).
+    """
+
+    def __init__(self, source: FrameSource = None, *, rate_hz: float = MAX_SENSOR_RATE_HZ, rows: int = ROWS,
+                 cols: int = COLS, cell_order: Iterable[int] | None = None, sensor_id: int = 1,
+                 device_id: int = 1, sensor_type: int = P.EMULATED_SENSOR_TYPE,
+                 faults: FaultConfig | str | None = None, seed: int = 0, loop: bool = True,
+                 keep_log: bool = True) -> None:
+        self.rows, self.cols, self.sensor_id, self.device_id = rows, cols, sensor_id, device_id
+        self.sensor_type = sensor_type
+        self.period = 1.0 / float(rate_hz)
+        self._order = P.cell_permutation(cell_order, rows, cols)
+        self.faults = FaultConfig.parse(faults) if isinstance(faults, (str, type(None))) else faults
+        self.keep_log = keep_log
+        self.log = EmulatorLog()
+        self.frames_sent = 0
+        self.error: BaseException | None = None
+        self._rng = np.random.default_rng(seed)
+        self._next_values = self._make_source(source, loop)
+        self._lock = threading.RLock()
+        self._streaming = threading.Event()
+        self._restart = False
+        self._stop = threading.Event()
+        self._commands = P.CommandParser()
+        self._t0 = time.monotonic()
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        os.set_blocking(self._master, False)
+        self._wake_r, self._wake_w = os.pipe()
+        self.port = os.ttyname(self._slave)
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name=f"tactile-emulator {self.port}", daemon=True)
+        self._thread.start()
+
+    def _make_source(self, source: FrameSource, loop: bool) -> Callable[[], np.ndarray] | None:
+        if source is None:
+            return None
+        if isinstance(source, (str, Path)):
+            source = _recording_source(source, loop)
+        if callable(source) and not hasattr(source, "__next__"):
+            return source  # type: ignore[return-value]
+        iterator = iter(source)  # type: ignore[arg-type]
+        return lambda: next(iterator)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def streaming(self) -> bool:
+        """True while the host has streaming switched on."""
+        return self._streaming.is_set()
+
+    @property
+    def rate_hz(self) -> float:
+        """Current streaming rate in Hz."""
+        return 1.0 / self.period
+
+    # ------------------------------------------------------------------ output
+    def _write(self, data: bytes, timeout: float = 0.5) -> int:
+        view, sent = memoryview(data), 0
+        deadline = time.monotonic() + timeout
+        while sent < len(data):
+            try:
+                sent += os.write(self._master, view[sent:])
+            except BlockingIOError:
+                if self._stop.is_set() or time.monotonic() > deadline:
+                    break
+                select.select([], [self._master], [], 0.02)
+        return sent
+
+    def _device_time(self) -> int:
+        return int((time.monotonic() - self._t0) * 1e6) & 0xFFFFFFFF
+
+    def _emit(self, values: np.ndarray, pushed: bool = False) -> float:
+        """Send one frame with the configured faults; return the pause to add (s)."""
+        f, rng = self.faults, self._rng
+        with self._lock:
+            index = self.frames_sent
+            kind = None
+            r = rng.random()
+            for name, p in (("bitflip", f.bitflip), ("tear", f.tear), ("header", f.header)):
+                if r < p:
+                    kind = name
+                    break
+                r -= p
+            high = None
+            if kind == "header":
+                values, high = self._plant_header(values)
+            ts = self._device_time()
+            datagram = P.build_data_datagram(self.sensor_id, ts, P.encode_values(values, self._order, high))
+            if kind == "bitflip":
+                datagram = self._flip(datagram)
+            elif kind == "tear":
+                datagram = datagram[: int(rng.integers(3, len(datagram)))]
+            sent = self._write(datagram)
+            fault = kind if kind in ("bitflip", "tear") else None
+            if sent < len(datagram):
+                fault = "tear"  # the line stalled: what went out is a torn datagram
+            if sent:
+                self.frames_sent += 1
+                if self.keep_log:
+                    self.log.frames.append(SentFrame(index, values, ts, fault, kind == "header", pushed))
+                    self._log_event("frame", index)
+            if f.garbage and rng.random() < f.garbage and kind != "header":
+                junk = rng.choice(_GARBAGE_ALPHABET, size=int(rng.integers(1, max(1, f.garbage_max) + 1))).tobytes()
+                self._write(junk)
+                self._log_event("garbage", len(junk))
+                self.log.garbage_bytes += len(junk)
+            pause = f.pause_s if (f.pause and rng.random() < f.pause) else 0.0
+            if pause:
+                self._log_event("pause", pause)
+            return pause
+
+    def _log_event(self, kind: str, value: float) -> None:
+        if self.keep_log:
+            self.log.events.append((kind, value))
+
+    def _plant_header(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Make words w, w+1 read ``F0 C4 <id>``: value 0x4F0 with high nibble 0xC, then id."""
+        n = self.rows * self.cols
+        w = int(self._rng.integers(0, n - 1))
+        flat = values.ravel().copy()
+        flat[self._order[w]] = 0x4F0
+        flat[self._order[w + 1]] = (flat[self._order[w + 1]] & 0xF00) | self.sensor_id
+        high = np.zeros(n, dtype=np.uint16)
+        high[w] = 0xC
+        return flat.reshape(values.shape), high
+
+    def _flip(self, datagram: bytes) -> bytes:
+        count = datagram.count(P.HEADER)
+        for _ in range(64):
+            pos = int(self._rng.integers(3, len(datagram)))
+            damaged = bytearray(datagram)
+            damaged[pos] ^= 1 << int(self._rng.integers(0, 8))
+            if damaged.count(P.HEADER) == count and damaged[-1] != P.HDR1:
+                return bytes(damaged)
+        damaged = bytearray(datagram)
+        damaged[-1] ^= 0x01 if damaged[-1] != 0xF1 else 0x02
+        return bytes(damaged)
+
+    def push(self, values: np.ndarray, timeout: float = 1.0) -> None:
+        """Send exactly this frame now (waits up to ``timeout`` s for the host to stream)."""
+        counts = as_counts(values, self.rows, self.cols)
+        if not self._streaming.wait(timeout):
+            raise RuntimeError(f"emulator {self.port}: the host has not started streaming within {timeout:g} s")
+        pause = self._emit(counts, pushed=True)
+        if pause:
+            time.sleep(pause)
+
+    # ------------------------------------------------------------------ commands
+    def _handle_commands(self, data: bytes) -> None:
+        before = self._commands.checksum_errors
+        commands = self._commands.feed(data)
+        with self._lock:
+            for _ in range(self._commands.checksum_errors - before):
+                self._write(P.build_error(P.ERR_CHECKSUM))
+            for cmd in commands:
+                self._execute(cmd)
+
+    def _execute(self, cmd: P.Command) -> None:
+        if cmd.destination not in (P.DID_MASTER, self.sensor_id):
+            self._write(P.build_error(P.ERR_UNKNOWN_SENSOR))
+        elif cmd.command == P.CMD_STOP_STREAM:
+            self._streaming.clear()
+        elif cmd.command == P.CMD_START_STREAM:
+            self._restart = True
+            self._streaming.set()
+        elif cmd.command == P.CMD_CONFIG_REQUEST:
+            self._write(P.build_config_answer(self.device_id, [(self.sensor_type, 2 * self.rows * self.cols)]))
+        elif cmd.command == P.CMD_SET_PERIOD:
+            if cmd.destination == self.sensor_id and len(cmd.data) == 2:
+                units = int.from_bytes(cmd.data, "little")
+            else:  # master form: (sensor id, period u16) items
+                items = [cmd.data[k : k + 3] for k in range(0, len(cmd.data) - 2, 3)]
+                units = next((int.from_bytes(it[1:], "little") for it in items if it[0] == self.sensor_id), 0)
+            if units > 0:
+                self.period = units * P.PERIOD_UNIT_S
+                self._restart = True
+        else:
+            self._write(P.build_error(P.ERR_UNKNOWN_COMMAND))
+
+    # ------------------------------------------------------------------ thread
+    def _run(self) -> None:
+        next_due = time.monotonic()
+        while not self._stop.is_set():
+            active = self._streaming.is_set() and self._next_values is not None
+            timeout = max(0.0, next_due - time.monotonic()) if active else 0.05
+            ready: list = []
+            try:
+                ready, _, _ = select.select([self._master, self._wake_r], [], [], timeout)
+                if self._master in ready:
+                    self._handle_commands(os.read(self._master, 65536))
+            except (BlockingIOError, InterruptedError):
+                pass
+            except OSError:
+                break  # pty gone
+            if self._wake_r in ready:
+                os.read(self._wake_r, 64)
+            if self._restart:
+                self._restart, next_due = False, time.monotonic()
+            now = time.monotonic()
+            while (now >= next_due and self._streaming.is_set() and self._next_values is not None
+                   and not self._stop.is_set()):
+                try:
+                    values = as_counts(self._next_values(), self.rows, self.cols)
+                except StopIteration:
+                    self._next_values = None
+                    break
+                except Exception as exc:  # noqa: BLE001 - report, stop streaming, keep answering
+                    self.error = exc
+                    self._next_values = None
+                    print(f"tactile emulator {self.port}: frame source failed: {exc!r}", file=sys.stderr)
+                    break
+                next_due += self.period + self._emit(values)
+                if now - next_due > 0.1:
+                    next_due = now  # fell far behind: resume the schedule instead of bursting
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self) -> None:
+        """Stop the thread and close both pty ends: a connected driver sees the port vanish."""
+        if self._closed:
+            return
+        self._closed = True
+        self._stop.set()
+        try:
+            os.write(self._wake_w, b"x")
+        except OSError:
+            pass
+        self._thread.join(timeout=2.0)
+        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def __enter__(self) -> "DeviceEmulator":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001
+            pass

@@ -1,0 +1,105 @@
+"""3-D view of a mission with pyvista: the scene's objects (faint), the recorded contacts
+coloured by pressure, the true cable and the pad's path; in a window or off screen to a PNG.
+
+Only ``tactile-bt view`` imports this module, so missions never load VTK.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["render_mission"]
+
+
+def _scene_meshes(scene, pv, extent: np.ndarray):
+    from tactile_bt.sim.objects import Cable, Table
+
+    meshes = []
+    for obj in scene.objects:
+        if isinstance(obj, Table):
+            lo, hi = extent
+            centre = ((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, obj.height)
+            size = hi[:2] - lo[:2]
+            meshes.append(("table", pv.Plane(center=centre, i_size=size[0], j_size=size[1]), "#d8cfc4", 0.5))
+        elif isinstance(obj, Cable):
+            pts = np.column_stack((obj.path, np.full(len(obj.path), obj.table_height + obj.radius)))
+            tube = pv.lines_from_points(pts[::2] if len(pts) > 4 else pts).tube(radius=obj.radius, n_sides=16)
+            meshes.append(("cable", tube, "#4a78b5", 0.35))
+    return meshes
+
+
+def render_mission(out_dir: str | Path, png: str | Path | None = None, window_size=(1200, 900)) -> Path | None:
+    """Draw the mission in ``out_dir`` (its report.json, log.npz and contacts.ply).
+
+    Parameters
+    ----------
+    out_dir : path
+        Output directory of ``tactile-bt run``.
+    png : path, optional
+        Render off screen into this PNG; without it a window opens.
+    """
+    import pyvista as pv
+
+    from tactile_bt.report import read_ply_points
+    from tactile_bt.sim.scene import load_scene
+
+    out = Path(out_dir)
+    report_file = out / "report.json"
+    if not report_file.exists():
+        raise FileNotFoundError(f"{report_file} not found: is {out} the output of 'tactile-bt run'?")
+    report = json.loads(report_file.read_text())
+    scene = load_scene(report["scene"])
+    log = np.load(out / "log.npz")
+    path = log["position_m"]
+    points = np.zeros((0, 8))
+    if (out / "contacts.ply").exists():
+        _, points = read_ply_points(out / "contacts.ply")
+    everything = np.vstack([path, points[:, :3]]) if len(points) else path
+    lo, hi = everything.min(axis=0) - 0.05, everything.max(axis=0) + 0.05
+
+    if png is not None:
+        pv.OFF_SCREEN = True  # no X server needed
+    plotter = pv.Plotter(off_screen=png is not None, window_size=list(window_size))
+    plotter.set_background("white")
+    for name, mesh, colour, opacity in _scene_meshes(scene, pv, np.array([lo, hi])):
+        plotter.add_mesh(mesh, color=colour, opacity=opacity, name=name)
+    if len(path) > 1:
+        plotter.add_mesh(pv.lines_from_points(path[:: max(1, len(path) // 500)]), color="#d62728",
+                         line_width=2, label="pad centre")
+        # The pad (80 mm square) at its last pose, for scale.
+        last = np.eye(4)
+        last[:3, :3] = log["rotation"][-1]
+        last[:3, 3] = path[-1]
+        half = np.array([scene.sensor.cols, scene.sensor.rows]) * scene.sensor.pitch / 2
+        pad = pv.Plane(center=(0, 0, 0), i_size=2 * half[0], j_size=2 * half[1]).transform(last, inplace=False)
+        plotter.add_mesh(pad, color="#f0a020", opacity=0.45, label="pad (end)")
+    if len(points):
+        cloud = pv.PolyData(points[:, :3].astype(float))
+        cloud["pressure (Pa)"] = points[:, 6].astype(float)
+        plotter.add_mesh(cloud, scalars="pressure (Pa)", cmap="viridis", point_size=6,
+                         render_points_as_spheres=True, label="contacts",
+                         scalar_bar_args={"position_x": 0.45, "width": 0.45, "fmt": "%.0f", "color": "black"})
+    title = f"{Path(report['tree']).stem} on {Path(report['scene']).stem}: {report['status']}"
+    if "path_error_m" in report and report["path_error_m"].get("mean") is not None:
+        p = report["path_error_m"]
+        title += f"\npath error mean {p['mean'] * 1e3:.2f} mm, max {p['max'] * 1e3:.2f} mm, {report['contacts']} contacts"
+    plotter.add_text(title, font_size=11, color="black")
+    plotter.add_legend(bcolor="white", face="rectangle", size=(0.16, 0.12), loc="lower left")
+    centre = (everything.min(axis=0) + everything.max(axis=0)) / 2
+    span = float(np.max(everything.max(axis=0) - everything.min(axis=0)))
+    plotter.camera.focal_point = centre
+    plotter.camera.position = centre + np.array([0.0, -0.9, 1.1]) * span
+    plotter.camera.up = (0.0, 0.0, 1.0)
+    plotter.reset_camera()
+    plotter.camera.zoom(1.25)
+    if png is None:
+        plotter.show()
+        return None
+    png = Path(png)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    plotter.screenshot(str(png))
+    plotter.close()
+    return png

@@ -1,0 +1,43 @@
+"""The tactile-bt command line: run, tree, accuracy, and its error messages."""
+
+import json
+from pathlib import Path
+
+from tactile_bt.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+TREE = str(ROOT / "trees" / "cable_follow.yaml")
+SCENE = str(ROOT / "sim" / "cable.yaml")
+
+
+def test_run_writes_outputs_and_applies_overrides(tmp_path, capsys):
+    code = main(["run", TREE, "--scene", SCENE, "--duration", "1", "--seed", "2",
+                 "--set", "objects.1.stiffness=1e5", "--out", str(tmp_path)])
+    assert code == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["seed"] == 2 and report["ticks"] == 250
+    for name in ("log.npz", "errors.png", "contacts.ply"):
+        assert (tmp_path / name).exists()
+    assert "x real time" in capsys.readouterr().out
+
+
+def test_bad_override_names_the_field(tmp_path, capsys):
+    code = main(["run", TREE, "--scene", SCENE, "--set", "objects.1.stifness=1e5", "--out", str(tmp_path)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "stifness" in err and "stiffness" in err
+
+
+def test_tree_prints_and_bad_tree_names_file_and_line(tmp_path, capsys):
+    assert main(["tree", TREE]) == 0
+    assert "force_hold" in capsys.readouterr().out
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("root:\n  sequence:\n    children:\n      - approach: {}\n      - force_hodl: {}\n")
+    assert main(["tree", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert f"{bad}:5" in err and "force_hold" in err
+
+
+def test_missing_scene_file_is_a_clear_error(tmp_path, capsys):
+    assert main(["run", TREE, "--scene", str(tmp_path / "nope.yaml"), "--out", str(tmp_path)]) == 2
+    assert "nope.yaml" in capsys.readouterr().err

@@ -1,0 +1,146 @@
+"""SerialTactileSensor against the emulator through a pseudo-terminal."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+import serial
+
+from tactile_bt.hardware import protocol as P
+from tactile_bt.hardware.driver import (
+    SensorConnectionError,
+    SensorDisconnectedError,
+    SensorError,
+    SerialTactileSensor,
+)
+from tactile_bt.hardware.emulator import DeviceEmulator, FaultConfig, synthetic_source
+from tactile_bt.hardware.soak import DEFAULT_FAULTS, run_soak
+
+
+def test_every_frame_arrives_intact_at_1900_hz():
+    result = run_soak(2.0, rate_hz=1900)
+    assert result.ok, result.summary()
+    assert result.rate_hz > 1200, result.summary()  # the emulator keeps (roughly) up
+    assert result.sent > 2800 and result.stats.resyncs == result.stats.dropped == 0
+
+
+def test_faults_drop_exactly_the_damaged_frames_and_are_counted():
+    result = run_soak(1.5, rate_hz=1900, faults=DEFAULT_FAULTS.replace("0.01", "0.03"), seed=11)
+    assert result.ok, result.summary()
+    assert result.damaged > 20 and result.stats.resyncs > 20 and result.stats.bytes_skipped > 0
+
+
+def test_read_returns_the_newest_frame_and_times_out():
+    with DeviceEmulator() as emu, SerialTactileSensor(emu.port) as sensor:
+        for k in range(3):
+            emu.push(np.full((16, 16), k))
+        time.sleep(0.1)
+        assert sensor.read(timeout=1.0).values[0, 0] == 2
+        with pytest.raises(TimeoutError, match=emu.port):
+            sensor.read(timeout=0.05)
+        assert [f.values[0, 0] for f in sensor.frames(timeout=0.05)] == [0, 1, 2]
+        assert sensor.stats.frames == 3
+
+
+def test_frames_stops_after_timeout_without_data():
+    with DeviceEmulator(synthetic_source(), rate_hz=1000) as emu, SerialTactileSensor(emu.port) as sensor:
+        sensor.read(timeout=1.0)
+        sensor.stop_streaming()
+        start = time.monotonic()
+        n = sum(1 for _ in sensor.frames(timeout=0.2))
+        assert n > 0 and time.monotonic() - start < 1.0
+
+
+def test_vanished_port_raises_an_error_naming_it():
+    emu = DeviceEmulator(synthetic_source(), rate_hz=1000)
+    with SerialTactileSensor(emu.port) as sensor:
+        sensor.read(timeout=1.0)
+        emu.close()
+        with pytest.raises(SensorDisconnectedError, match=emu.port):
+            for _ in sensor.frames(timeout=2.0):
+                pass
+        with pytest.raises(SensorDisconnectedError, match="vanished"):
+            sensor.read(timeout=2.0)
+
+
+def test_silent_device_and_missing_port_give_clear_errors():
+    master, slave = os.openpty()
+    try:
+        port = os.ttyname(slave)
+        start = time.monotonic()
+        with pytest.raises(SensorConnectionError, match=f"no configuration answer .*{port}"):
+            SerialTactileSensor(port, timeout=0.2)
+        assert time.monotonic() - start < 1.0
+    finally:
+        os.close(master)
+        os.close(slave)
+    with pytest.raises(SensorConnectionError, match="/dev/does-not-exist"):
+        SerialTactileSensor("/dev/does-not-exist")
+
+
+def test_wrong_array_size_is_refused():
+    with DeviceEmulator(rows=8, cols=8) as emu:
+        with pytest.raises(SensorConnectionError, match="no sensor with 512 data bytes"):
+            SerialTactileSensor(emu.port)
+        with SerialTactileSensor(emu.port, rows=8, cols=8) as sensor:
+            emu.push(np.ones((8, 8)))
+            assert sensor.read().values.shape == (8, 8)
+
+
+def test_cell_order_maps_device_words_to_rows_and_columns():
+    order = np.random.default_rng(1).permutation(256)
+    values = np.arange(256).reshape(16, 16)
+    with DeviceEmulator(cell_order=order) as emu:
+        with SerialTactileSensor(emu.port, cell_order=order) as sensor:
+            emu.push(values)
+            np.testing.assert_array_equal(sensor.read().values, values)
+        with SerialTactileSensor(emu.port) as sensor:  # default: row-major
+            emu.push(values)
+            np.testing.assert_array_equal(sensor.read().values.ravel(), values.ravel()[order])
+
+
+def test_period_is_sent_to_the_device():
+    with DeviceEmulator(synthetic_source(), rate_hz=1900) as emu, SerialTactileSensor(emu.port, period=0.004) as s:
+        s.read(timeout=1.0)  # streaming started, so the earlier period command was handled
+        assert emu.period == pytest.approx(0.004)
+
+
+def test_a_stream_left_running_is_stopped_and_counters_start_clean():
+    with DeviceEmulator(synthetic_source(), rate_hz=1900, faults="garbage=0.5") as emu:
+        with serial.Serial(emu.port) as raw:  # a previous session that never stopped the stream
+            raw.write(P.start_stream_command())
+            time.sleep(0.1)
+        emu.faults = FaultConfig()
+        with SerialTactileSensor(emu.port) as sensor:
+            sensor.read(timeout=1.0)
+            stats = sensor.stats
+        assert stats.frames > 0 and stats.resyncs == 0 and stats.bytes_skipped == 0
+
+
+def test_unconsumed_frames_queue_is_bounded():
+    with DeviceEmulator(synthetic_source(), rate_hz=1900) as emu:
+        with SerialTactileSensor(emu.port, queue_frames=10) as sensor:
+            time.sleep(0.1)
+            sensor.stop_streaming()
+            time.sleep(0.05)
+            frames = list(sensor.frames(timeout=0.05))
+            assert len(frames) == 10 and sensor.stats.queue_dropped == sensor.stats.frames - 10
+
+
+def test_close_is_idempotent_and_reading_a_closed_sensor_fails():
+    threads = threading.active_count()
+    with DeviceEmulator(synthetic_source()) as emu:
+        sensor = SerialTactileSensor(emu.port)
+        with sensor:
+            sensor.read()
+        sensor.close()
+        with pytest.raises(SensorError, match="closed"):
+            sensor.read(timeout=0.1)
+        start = time.monotonic()
+        list(sensor.frames(timeout=5.0))  # drains what was queued before close(), then ends at once
+        assert time.monotonic() - start < 1.0
+    assert threading.active_count() == threads

@@ -1,0 +1,180 @@
+"""The device emulator over a pseudo-terminal: protocol answers, push mode, faults, lifetime."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+import serial
+
+from tactile_bt.hardware import protocol as P
+from tactile_bt.hardware.driver import SerialTactileSensor
+from tactile_bt.hardware.emulator import DeviceEmulator, EmulatorLog, FaultConfig, SentFrame, synthetic_source
+from tactile_bt.hardware.recording import Recorder
+
+
+def raw_port(emu: DeviceEmulator) -> serial.Serial:
+    return serial.Serial(emu.port, timeout=0.05)
+
+
+def read_datagrams(ser: serial.Serial, parser: P.DatagramParser, seconds: float) -> list:
+    out, end = [], time.monotonic() + seconds
+    while time.monotonic() < end:
+        out += parser.feed(ser.read(max(1, ser.in_waiting)))
+    return out
+
+
+def test_answers_configuration_request():
+    with DeviceEmulator(device_id=9, sensor_type=0x1616) as emu, raw_port(emu) as ser:
+        ser.write(P.config_request_command())
+        (answer,) = read_datagrams(ser, P.DatagramParser(), 0.2)
+        assert answer == P.ConfigAnswer(version=1, device_id=9, sensors=((0x1616, 512),))
+
+
+def test_unknown_command_bad_checksum_and_unknown_sensor_get_error_datagrams():
+    with DeviceEmulator() as emu, raw_port(emu) as ser:
+        ser.write(P.build_command(0, 0xC2))  # serial-number request: not emulated
+        ser.write(b"\xf0\xc4\x00\xc0\x00")  # config request with a wrong checksum
+        ser.write(P.build_command(7, P.CMD_STOP_STREAM))  # no sensor 7
+        errors = read_datagrams(ser, P.DatagramParser(), 0.2)
+        assert sorted(e.code for e in errors) == sorted([P.ERR_UNKNOWN_COMMAND, P.ERR_CHECKSUM, P.ERR_UNKNOWN_SENSOR])
+
+
+def test_streams_at_the_period_the_host_sets_and_stops():
+    with DeviceEmulator(synthetic_source(), rate_hz=1900) as emu, raw_port(emu) as ser:
+        ser.write(P.set_period_command(1, 0.01) + P.start_stream_command())
+        frames = read_datagrams(ser, P.DatagramParser({1: 512}), 0.5)
+        assert emu.period == pytest.approx(0.01)
+        assert 35 <= len(frames) <= 60  # 100 Hz for 0.5 s
+        ser.write(P.stop_stream_command())
+        time.sleep(0.05)
+        ser.reset_input_buffer()
+        assert read_datagrams(ser, P.DatagramParser({1: 512}), 0.1) == []
+        assert not emu.streaming
+
+
+def test_device_timestamps_count_microseconds():
+    with DeviceEmulator(synthetic_source(), rate_hz=500) as emu, SerialTactileSensor(emu.port) as sensor:
+        frames = [f for f, _ in zip(sensor.frames(timeout=1.0), range(50))]
+    steps = np.diff([f.device_timestamp for f in frames])
+    assert np.median(steps) == pytest.approx(2000, rel=0.2)
+
+
+def test_push_sends_exactly_the_given_frame():
+    rng = np.random.default_rng(5)
+    with DeviceEmulator() as emu, SerialTactileSensor(emu.port) as sensor:
+        for _ in range(25):
+            values = rng.integers(0, 4096, (16, 16))
+            emu.push(values)
+            frame = sensor.read(timeout=1.0)
+            np.testing.assert_array_equal(frame.values, values)
+            assert frame.values.dtype == np.uint16
+        assert [f.pushed for f in emu.log.frames] == [True] * 25
+
+
+def test_push_validates_and_needs_a_streaming_host():
+    with DeviceEmulator() as emu:
+        with pytest.raises(RuntimeError, match="not started streaming"):
+            emu.push(np.zeros((16, 16)), timeout=0.05)
+        with pytest.raises(ValueError, match="shape"):
+            emu.push(np.zeros((4, 4)))
+        with pytest.raises(ValueError, match="0..4095"):
+            emu.push(np.full((16, 16), 4096))
+        with pytest.raises(ValueError, match="NaN"):
+            emu.push(np.full((16, 16), np.nan))
+
+
+def test_streams_a_recording_in_a_loop(tmp_path):
+    path = tmp_path / "rec.tbr"
+    values = np.arange(5 * 256, dtype=np.uint16).reshape(5, 16, 16) % 4096
+    with Recorder(path, chunk_frames=2) as rec:
+        for k, v in enumerate(values):
+            rec.write(v, timestamp=k * 0.004)
+    with DeviceEmulator(path, rate_hz=1000) as emu, SerialTactileSensor(emu.port) as sensor:
+        got = [f.values for f, _ in zip(sensor.frames(timeout=1.0), range(12))]
+    for k, v in enumerate(got):
+        np.testing.assert_array_equal(v, values[k % 5])
+
+
+def test_fault_spec_parsing():
+    cfg = FaultConfig.parse("garbage=0.1, tear=0.2,pause_s=0.5,garbage_max=9")
+    assert (cfg.garbage, cfg.tear, cfg.pause_s, cfg.garbage_max, cfg.bitflip) == (0.1, 0.2, 0.5, 9, 0.0)
+    assert FaultConfig.parse("all=0.01").header == 0.01
+    assert FaultConfig.parse(None) == FaultConfig()
+    with pytest.raises(ValueError, match="unknown fault"):
+        FaultConfig.parse("lightning=1")
+    with pytest.raises(ValueError, match="name=number"):
+        FaultConfig.parse("tear=often")
+
+
+def test_fault_injection_ground_truth_matches_the_raw_byte_stream():
+    faults = FaultConfig(garbage=0.1, bitflip=0.1, tear=0.1, header=0.1, pause=0.02, pause_s=0.002)
+    with DeviceEmulator(synthetic_source(), rate_hz=1900, faults=faults, seed=3) as emu, raw_port(emu) as ser:
+        ser.write(P.start_stream_command())
+        parser = P.DatagramParser({1: 512}, accept_config=False)
+        datagrams = read_datagrams(ser, parser, 0.4)
+        emu.faults = FaultConfig()
+        datagrams += read_datagrams(ser, parser, 0.05)
+        ser.write(P.stop_stream_command())
+        datagrams += read_datagrams(ser, parser, 0.1) + parser.feed(b"", settle=True)
+    log = emu.log
+    kinds = {f.fault for f in log.frames} | {"header" if f.header_pattern else None for f in log.frames}
+    assert {"bitflip", "tear", "header", None} <= kinds
+    assert any(k == "garbage" for k, _ in log.events) and any(k == "pause" for k, _ in log.events)
+    intact = log.intact()
+    assert [d.timestamp for d in datagrams] == [f.device_timestamp for f in intact]
+    inverse = np.argsort(P.cell_permutation(None))
+    for d, f in zip(datagrams, intact):
+        np.testing.assert_array_equal(P.decode_values(d.payload, inverse), f.values)
+    assert parser.stats.checksum_errors + parser.stats.overlaps == len(log.damaged())
+    assert parser.stats.resyncs == log.expected_resyncs()
+
+
+def test_expected_resyncs_counts_runs_of_damage():
+    frames = [SentFrame(k, np.zeros((1, 1)), k, fault) for k, fault in enumerate([None, "tear", "bitflip", None, None])]
+    events = [("frame", 0), ("garbage", 3), ("frame", 1), ("frame", 2), ("frame", 3), ("garbage", 1), ("frame", 4)]
+    assert EmulatorLog(frames, events).expected_resyncs() == 2
+
+
+def test_close_releases_file_descriptors_and_threads():
+    fds, threads = len(os.listdir("/proc/self/fd")), threading.active_count()
+    for _ in range(3):
+        with DeviceEmulator(synthetic_source()) as emu, SerialTactileSensor(emu.port) as sensor:
+            sensor.read(timeout=1.0)
+    assert len(os.listdir("/proc/self/fd")) == fds
+    assert threading.active_count() == threads
+
+
+def test_a_failing_source_is_reported_and_the_device_keeps_answering():
+    def source():
+        raise RuntimeError("simulator exploded")
+
+    with DeviceEmulator(source) as emu, raw_port(emu) as ser:
+        ser.write(P.start_stream_command())
+        time.sleep(0.1)
+        assert isinstance(emu.error, RuntimeError)
+        ser.write(P.config_request_command())
+        assert any(isinstance(d, P.ConfigAnswer) for d in read_datagrams(ser, P.DatagramParser(), 0.2))
+
+
+def test_cli_emulate_prints_a_port_a_driver_can_open():
+    proc = subprocess.Popen([sys.executable, "-m", "tactile_bt.hardware.cli", "sensor", "emulate", "--duration", "20"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port.startswith("/dev/")
+        with SerialTactileSensor(port, timeout=2.0) as sensor:
+            assert sensor.read(timeout=2.0).values.shape == (16, 16)
+        proc.terminate()
+        assert proc.wait(timeout=5) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=5)
+        proc.stdout.close()
+        proc.stderr.close()
