@@ -42,21 +42,39 @@ def _cmd_run(args) -> int:
     try:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
-                             orientation_method=args.orientation)
+                             orientation_method=args.orientation, via_emulator=args.via_emulator,
+                             record=args.record)
     finally:
         progress.close()
     r = result.report
     print(f"{r['status']}{': ' + r['reason'] if r['reason'] else ''} after {r['sim_time_s']:.2f} s "
           f"({r['ticks']} ticks, {r['real_time_factor']:.1f}x real time)")
-    for name, m in r["metrics"].items():
-        print(f"  {name:16s} steady-state {m['steady_state_error']:+.4g}  std {m['std']:.4g}  "
-              f"response {m['response_time_s']:.2f} s")
+    _print_report(r)
     if "path_error_m" in r:
         p = r["path_error_m"]
         print(f"  path error       mean {p['mean'] * 1e3:.2f} mm  max {p['max'] * 1e3:.2f} mm  "
               f"followed {p['followed_m'] * 1e3:.0f} of {p['cable_length_m'] * 1e3:.0f} mm")
     print(f"  outputs in {args.out}")
     return 0 if r["status"] in ("success", "completed") else 1
+
+
+def _print_report(r: dict) -> None:
+    for name, m in r["metrics"].items():
+        print(f"  {name:16s} steady-state {m['steady_state_error']:+.4g}  std {m['std']:.4g}  "
+              f"response {m['response_time_s']:.2f} s")
+
+
+def _cmd_replay(args) -> int:
+    from tactile_bt.replay import replay_mission
+
+    result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
+                            orientation_method=args.orientation, out=args.out)
+    r = result.report
+    print(f"{r['status']} after {r['ticks']} frames ({r['real_time_factor']:.1f}x the recorded pace)")
+    _print_report(r)
+    if args.out:
+        print(f"  outputs in {args.out}")
+    return 0
 
 
 def _cmd_tree(args) -> int:
@@ -147,8 +165,20 @@ def build_parser() -> argparse.ArgumentParser:
                      help="override a scene value, e.g. objects.1.stiffness=1e5 (repeatable)")
     run.add_argument("--orientation", choices=("moments", "hough"), default="moments",
                      help="edge orientation method (default: moments)")
+    run.add_argument("--via-emulator", action="store_true",
+                     help="carry every frame through the device emulator, a pty and the serial driver")
+    run.add_argument("--record", default=None, metavar="FILE", help="record frames and poses (chunked, crash-safe)")
     run.add_argument("--out", required=True, help="output directory")
     run.set_defaults(func=_cmd_run)
+
+    replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses")
+    replay.add_argument("recording", help="recording from 'run --record' or 'sensor record'")
+    replay.add_argument("--tree", required=True, help="YAML tree file")
+    replay.add_argument("--calibration", default=None, help="calibration .npz (default: <recording>.calibration.npz)")
+    replay.add_argument("--speed", type=float, default=None, help="1 = recorded pace (default: as fast as possible)")
+    replay.add_argument("--orientation", choices=("moments", "hough"), default="moments")
+    replay.add_argument("--out", default=None, help="output directory")
+    replay.set_defaults(func=_cmd_replay)
 
     tree = sub.add_parser("tree", help="validate and print a YAML tree")
     tree.add_argument("tree")

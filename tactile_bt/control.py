@@ -96,7 +96,7 @@ def feature_error(features, target_cop=(0.0, 0.0), target_pressure=0.0, target_o
     """
     if not features.in_contact:
         return (math.nan, math.nan, math.nan, math.nan)
-    x, y = features.cop.tolist()
+    x, y = features.cop_xy
     return (
         target_cop[0] - x,
         target_cop[1] - y,
@@ -205,25 +205,30 @@ class ServoCommand:
         self.linear_limit = float(linear_limit)
         self.angular_limit = float(angular_limit)
         self._sum = [0.0] * 6
-        self.parts: dict[str, np.ndarray] = {}
+        self._parts: dict[str, list] = {}
         self.errors: dict[str, float] = {}
 
     def clear(self) -> None:
         """Start a new cycle: no parts, no errors."""
         self._sum = [0.0] * 6
-        self.parts.clear()
+        self._parts.clear()
         self.errors.clear()
 
     def add(self, source: str, twist) -> None:
         """Add a partial sensor-frame twist (6 numbers, m/s and rad/s) from the leaf ``source``."""
-        values = twist.tolist() if isinstance(twist, np.ndarray) else [float(v) for v in twist]
-        if len(values) != 6 or not math.isfinite(math.fsum(values)):
+        values = twist.tolist() if isinstance(twist, np.ndarray) else list(twist)
+        if len(values) != 6 or not math.isfinite(sum(values)):
             raise ValueError(f"{source}: a twist must be 6 finite numbers, got {twist!r}")
         total = self._sum
         for i in range(6):
             total[i] += values[i]
-        previous = self.parts.get(source)
-        self.parts[source] = np.array(values) if previous is None else previous + values
+        previous = self._parts.get(source)
+        self._parts[source] = values if previous is None else [p + v for p, v in zip(previous, values)]
+
+    @property
+    def parts(self) -> dict[str, np.ndarray]:
+        """The twist each source added this cycle, by source name."""
+        return {k: np.array(v, dtype=float) for k, v in self._parts.items()}
 
     def report_error(self, feature: str, value: float) -> None:
         """Record the error of a controlled feature this cycle (for logs and metrics)."""

@@ -6,6 +6,7 @@ Ad(T_gs) → mount/robot → log. Nothing else reaches across: the tree never ta
 
 from __future__ import annotations
 
+import contextlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,7 +26,7 @@ from tactile_bt.filters import FeatureSmoother
 from tactile_bt.metrics import feature_metrics, path_error
 from tactile_bt.spatial import body_to_spatial
 
-__all__ = ["run_mission", "ControlLoop", "MissionResult", "MissionLog"]
+__all__ = ["run_mission", "ControlLoop", "MissionResult", "MissionLog", "calibration_path"]
 
 _ERRORS = ("pressure_pa", "cop_x_px", "cop_y_px", "orientation_rad")
 
@@ -54,6 +55,28 @@ class MissionLog:
         self.twist = np.zeros((n, 6))
         self.position = np.zeros((n, 3))
         self.rotation = np.zeros((n, 3, 3))
+
+    def record(self, k: int, t: float, loop: "ControlLoop", twist_s: np.ndarray, pose: np.ndarray,
+               penetration: float = float("nan")) -> None:
+        """Store cycle ``k`` (mission time ``t``) of a control loop."""
+        f_raw, f = loop.features_raw, loop.features
+        s = self.scalars
+        s["t"][k] = t
+        s["in_contact"][k] = f_raw.in_contact
+        s["force_n"][k] = f_raw.force
+        s["area"][k] = f_raw.area
+        s["pressure_raw_pa"][k] = f_raw.pressure
+        s["pressure_pa"][k] = f.pressure
+        s["cop_x_px"][k], s["cop_y_px"][k] = f_raw.cop_px.tolist()
+        s["orientation_raw_rad"][k] = f_raw.orientation
+        s["orientation_rad"][k] = f.orientation
+        s["penetration_m"][k] = penetration
+        for name, value in loop.command.errors.items():
+            s["error_" + name][k] = value
+        self.twist[k] = twist_s
+        self.position[k] = pose[:3, 3]
+        self.rotation[k] = pose[:3, :3]
+        self.n = k + 1
 
     def arrays(self) -> dict[str, np.ndarray]:
         n = self.n
@@ -99,6 +122,11 @@ class MissionResult:
         from tactile_bt.report import write_outputs
 
         write_outputs(self, Path(out))
+
+
+def calibration_path(recording: str | Path) -> Path:
+    """Where a mission recording keeps the calibration of its tactels."""
+    return Path(f"{recording}.calibration.npz")
 
 
 def _resolve(tree, scene, overrides):
@@ -197,6 +225,8 @@ def run_mission(
     progress: Callable[[float, float], None] | None = None,
     orientation_method: str = "moments",
     threshold: float = defaults.CONTACT_THRESHOLD_N,
+    via_emulator: bool = False,
+    record: str | Path | None = None,
 ) -> MissionResult:
     """Run a tree against a simulated scene.
 
@@ -219,6 +249,12 @@ def run_mission(
     orientation_method : "moments" or "hough"
     threshold : float
         Binarisation threshold of the force image (N per tactel).
+    via_emulator : bool
+        Carry every simulated frame through the device emulator, a pseudo-terminal and the
+        serial driver (:mod:`tactile_bt.hardware`), as a real sensor's frames would come.
+    record : path, optional
+        Record every raw frame with its pose into this chunked recording (and the simulated
+        pad's calibration next to it, ``<record>.calibration.npz``) for ``replay_mission``.
     """
     tree, scene = _resolve(tree, scene, overrides)
     duration = float(scene.duration_s if duration is None else duration)
@@ -232,39 +268,35 @@ def run_mission(
     contacts = loop.contacts
 
     log = MissionLog(n_cycles)
-    scalars = log.scalars
-    errors = {e: scalars[f"error_{e}"] for e in _ERRORS}
     status = "completed"
     reason = ""
     progress_every = max(1, int(scene.rate_hz / 20))
+    stack = contextlib.ExitStack()
+    link = recorder = None
+    if via_emulator:
+        from tactile_bt.hardware.link import EmulatedSensorLink
+
+        link = stack.enter_context(EmulatedSensorLink(scene.sensor.rows, scene.sensor.cols))
+    if record is not None:
+        from tactile_bt.hardware.recording import Recorder
+
+        world.calibration.save(calibration_path(record))
+        recorder = stack.enter_context(Recorder(record, scene.sensor.rows, scene.sensor.cols,
+                                                metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz}))
     wall_start = time.perf_counter()
     try:
         for k in range(n_cycles):
             t = k * dt
             # sense → perceive → tick → controller → Ad(T_gs) → robot
             pose = world.pose
-            twist_s = loop.cycle(world.sense(), pose, t)
+            raw = world.sense()
+            if link is not None:  # through the device emulator, a pty and the serial driver
+                raw = link.transfer(raw)
+            if recorder is not None:
+                recorder.write(raw, pose, timestamp=t)
+            twist_s = loop.cycle(raw, pose, t)
             world.move(body_to_spatial(pose, twist_s), dt)
-            f_raw, f = loop.features_raw, loop.features
-            command = loop.command
-            # log the cycle
-            scalars["t"][k] = t
-            scalars["in_contact"][k] = f_raw.in_contact
-            scalars["force_n"][k] = f_raw.force
-            scalars["area"][k] = f_raw.area
-            scalars["pressure_raw_pa"][k] = f_raw.pressure
-            scalars["pressure_pa"][k] = f.pressure
-            scalars["cop_x_px"][k] = f_raw.cop_px[0]
-            scalars["cop_y_px"][k] = f_raw.cop_px[1]
-            scalars["orientation_raw_rad"][k] = f_raw.orientation
-            scalars["orientation_rad"][k] = f.orientation
-            scalars["penetration_m"][k] = world.last_penetration
-            for name, value in command.errors.items():
-                errors[name][k] = value
-            log.twist[k] = twist_s
-            log.position[k] = pose[:3, 3]
-            log.rotation[k] = pose[:3, :3]
-            log.n = k + 1
+            log.record(k, t, loop, twist_s, pose, world.last_penetration)
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
             root_status = tree.root.status
@@ -284,6 +316,7 @@ def run_mission(
         raise
     finally:
         tree.interrupt()
+        stack.close()
     result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt)
     if out is not None:
         result.save(out)

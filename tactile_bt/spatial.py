@@ -90,23 +90,37 @@ def exp_twist(twist: np.ndarray, dt: float) -> np.ndarray:
 
     Notes
     -----
-    This runs once per control cycle, so the rotation is the closed-form Rodrigues formula
-    rather than ``Rotation.from_rotvec(...).as_matrix()`` (about 10x the cost for one vector);
-    ``tests/test_spatial.py`` checks both agree.
+    This runs once per control cycle, so it is the closed-form Rodrigues formula on Python
+    floats rather than ``Rotation.from_rotvec(...).as_matrix()`` (about 10x the cost for one
+    vector); ``tests/test_spatial.py`` checks both agree.
     """
     vx, vy, vz, wx, wy, wz = (float(c) * dt for c in twist)
-    theta = math.sqrt(wx * wx + wy * wy + wz * wz)
-    T = np.eye(4)
-    if theta < 1e-12:
-        T[:3, 3] = (vx, vy, vz)
-        return T
-    W = np.array(((0.0, -wz, wy), (wz, 0.0, -wx), (-wy, wx, 0.0)))
-    W2 = W @ W
+    theta2 = wx * wx + wy * wy + wz * wz
+    if theta2 < 1e-24:
+        return np.array(((1.0, 0.0, 0.0, vx), (0.0, 1.0, 0.0, vy), (0.0, 0.0, 1.0, vz), (0.0, 0.0, 0.0, 1.0)))
+    theta = math.sqrt(theta2)
     s, c = math.sin(theta), math.cos(theta)
-    T[:3, :3] += (s / theta) * W + ((1.0 - c) / theta**2) * W2
-    V = np.eye(3) + ((1.0 - c) / theta**2) * W + ((theta - s) / theta**3) * W2
-    T[:3, 3] = V @ (vx, vy, vz)
-    return T
+    a, b = s / theta, (1.0 - c) / theta2  # R = I + a W + b W²
+    d = (theta - s) / (theta2 * theta)  # V = I + b W + d W²
+    # W² = w wᵀ − θ² I
+    xx, yy, zz, xy, xz, yz = wx * wx, wy * wy, wz * wz, wx * wy, wx * wz, wy * wz
+    R = (
+        (1.0 - b * (yy + zz), -a * wz + b * xy, a * wy + b * xz),
+        (a * wz + b * xy, 1.0 - b * (xx + zz), -a * wx + b * yz),
+        (-a * wy + b * xz, a * wx + b * yz, 1.0 - b * (xx + yy)),
+    )
+    V = (
+        (1.0 - d * (yy + zz), -b * wz + d * xy, b * wy + d * xz),
+        (b * wz + d * xy, 1.0 - d * (xx + zz), -b * wx + d * yz),
+        (-b * wy + d * xz, b * wx + d * yz, 1.0 - d * (xx + yy)),
+    )
+    t = [V[i][0] * vx + V[i][1] * vy + V[i][2] * vz for i in range(3)]
+    return np.array((
+        (R[0][0], R[0][1], R[0][2], t[0]),
+        (R[1][0], R[1][1], R[1][2], t[1]),
+        (R[2][0], R[2][1], R[2][2], t[2]),
+        (0.0, 0.0, 0.0, 1.0),
+    ))
 
 
 def integrate_spatial(T: np.ndarray, twist_g: np.ndarray, dt: float) -> np.ndarray:

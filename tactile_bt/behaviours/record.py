@@ -29,13 +29,10 @@ class ContactCloud:
         return self._n
 
     def append(self, point, normal, pressure: float, t: float) -> None:
+        """Add one sample: point and normal (3 each, world frame), pressure (Pa), time (s)."""
         if self._n == self._data.shape[0]:
             self._data = np.concatenate((self._data, np.empty_like(self._data)))
-        row = self._data[self._n]
-        row[0:3] = point
-        row[3:6] = normal
-        row[6] = pressure
-        row[7] = t
+        self._data[self._n] = (*point, *normal, pressure, t)
         self._n += 1
 
     @property
@@ -97,11 +94,11 @@ class RecordContacts(TactileBehaviour):
             cop = (px - ((f.mask.shape[1] - 1) * 0.5, (f.mask.shape[0] - 1) * 0.5)) * f.pitch
         else:
             cop = f.cop
-        point = T[:3, 0] * cop[0] + T[:3, 1] * cop[1] + T[:3, 3]
+        point = T[:3, :3] @ (cop[0], cop[1], 0.0) + T[:3, 3]
         if self._last is not None and self.min_spacing_m > 0:
             if np.sum((point - self._last) ** 2) < self.min_spacing_m**2:
                 return Status.RUNNING
-        cloud.append(point, -T[:3, 2], f.pressure, self.now)
+        cloud.append(point.tolist(), (-T[:3, 2]).tolist(), f.pressure, self.now)
         self._last = point
         self.feedback_message = f"{len(cloud)} contacts"
         return Status.RUNNING

@@ -15,6 +15,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tactile_bt import defaults
@@ -172,9 +173,6 @@ class Cable(SimObject):
         self._grid, self._origin, self.length = _lateral_distance_grid(
             self.path.tobytes(), len(self.path), self.grid_cell, margin
         )
-        self._ny = self._grid.shape[1]
-        self._flat = self._grid.ravel()
-        self._upper = np.array(self._grid.shape, dtype=float) - 1.000001
         lo = self.path.min(axis=0) - self.radius
         hi = self.path.max(axis=0) + self.radius
         self._bounds = np.array([[lo[0], lo[1], self.table_height], [hi[0], hi[1], self.table_height + 2 * self.radius]])
@@ -184,20 +182,10 @@ class Cable(SimObject):
 
     def lateral_distance(self, xy: np.ndarray) -> np.ndarray:
         """Signed horizontal distance (m) of ``(N, 2)`` points from the centreline (bilinear on a
-        precomputed grid; exact for straight pieces, O(cell²·curvature) on arcs)."""
-        u = (xy - self._origin) * (1.0 / self.grid_cell)
-        np.maximum(u, 0.0, out=u)
-        np.minimum(u, self._upper, out=u)
-        i = u.astype(np.intp)
-        f = u - i
-        k = i[:, 0] * self._ny + i[:, 1]
-        g = self._flat
-        fx, fy = f[:, 0], f[:, 1]
-        g00, g01 = g[k], g[k + 1]
-        k += self._ny
-        g10, g11 = g[k], g[k + 1]
-        a = g00 + (g01 - g00) * fy
-        return a + (g10 + (g11 - g10) * fy - a) * fx
+        precomputed grid; exact for straight pieces, O(cell²·curvature) on arcs). Points off the
+        grid read its border, which lies farther than any contact reaches."""
+        coords = ((xy - self._origin) * (1.0 / self.grid_cell)).T
+        return ndimage.map_coordinates(self._grid, coords, order=1, mode="nearest", prefilter=False)
 
     def sdf(self, points: np.ndarray) -> np.ndarray:
         lateral = self.lateral_distance(points[:, :2])
