@@ -164,10 +164,12 @@ class ControlLoop:
     orientation_method : "moments" or "hough"
     threshold : float
         Binarisation threshold (N per tactel).
+    profile : bool
+        Accumulate the time spent per stage in :attr:`stage_times`.
     """
 
     def __init__(self, tree, calibration, dt: float, orientation_method: str = "moments",
-                 threshold: float = defaults.CONTACT_THRESHOLD_N) -> None:
+                 threshold: float = defaults.CONTACT_THRESHOLD_N, profile: bool = False) -> None:
         self.tree = tree
         self.calibration = calibration
         self.dt = float(dt)
@@ -191,17 +193,26 @@ class ControlLoop:
         self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]
         self.features_raw = None
         self.features = None
+        #: With ``profile=True``: accumulated seconds in perception (calibrate, extract,
+        #: smooth) and in the tree tick plus controller, over ``stage_cycles`` cycles.
+        self.stage_times = [0.0, 0.0] if profile else None
+        self.stage_cycles = 0
         self._storage = py_trees.blackboard.Blackboard.storage
         self._keys = tuple(f"{NAMESPACE}/{k}" for k in ("time", "pose", "features_raw", "features"))
 
     def cycle(self, raw: np.ndarray, pose: np.ndarray, t: float) -> np.ndarray:
         """Run one cycle on a raw frame taken at mission time ``t`` (s) with the pad at ``pose``
         (``T_gs``); returns the sensor-frame twist ``V_s`` to apply."""
+        clock = time.perf_counter if self.stage_times is not None else None
+        if clock:
+            t0 = clock()
         image = self.calibration.force_from_raw(raw)
         # Orientation only when a running leaf uses it (a leaf starting this tick sees NaN once).
         needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
         f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None)
         f = self.smoother(f_raw)
+        if clock:
+            t1 = clock()
         # Straight into the blackboard's storage: the keys are registered by ``writer`` above;
         # the client's access bookkeeping would cost more than the control law (DESIGN budget).
         storage = self._storage
@@ -212,7 +223,12 @@ class ControlLoop:
         self.features_raw, self.features = f_raw, f
         self.command.clear()
         self.tree.tick()
-        return self.command.twist()
+        twist = self.command.twist()
+        if clock:
+            self.stage_times[0] += t1 - t0
+            self.stage_times[1] += clock() - t1
+            self.stage_cycles += 1
+        return twist
 
 
 def run_mission(

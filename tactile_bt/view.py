@@ -7,6 +7,7 @@ Only ``tactile-bt view`` imports this module, so missions never load VTK.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,9 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
     png : path, optional
         Render off screen into this PNG; without it a window opens.
     """
+    if png is not None and not os.environ.get("DISPLAY"):
+        # Off screen without an X server: go straight to EGL instead of trying X first.
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
     from tactile_bt.report import read_ply_points
@@ -58,6 +62,10 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
     if (out / "contacts.ply").exists():
         _, points = read_ply_points(out / "contacts.ply")
     everything = np.vstack([path, points[:, :3]]) if len(points) else path
+    for obj in scene.objects:  # include every bounded object (the table is not)
+        b = obj.bounds()
+        if np.all(np.isfinite(b)):
+            everything = np.vstack([everything, b])
     lo, hi = everything.min(axis=0) - 0.05, everything.max(axis=0) + 0.05
 
     if png is not None:

@@ -123,7 +123,7 @@ class SensorModel:
 
     # ------------------------------------------------------------------------------------
     #: How far (m) the pad may move before the broad phase is redone.
-    BROAD_PHASE_MARGIN = 1.0e-3
+    BROAD_PHASE_MARGIN = 2.0e-3
 
     def invalidate(self) -> None:
         """Forget the cached broad phase (call when objects move)."""
