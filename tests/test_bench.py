@@ -1,0 +1,24 @@
+"""tactile-bt bench produces its figures (no timing is asserted: speed is measured, not tested)."""
+
+import json
+
+import pytest
+
+from tactile_bt.bench import bench_control_cycle, bench_features, bench_mission, format_bench
+
+
+def test_bench_figures_are_ratios_measured_in_one_run():
+    figures = {
+        "features": bench_features(repeats=1, number=5),
+        "control_cycle": bench_control_cycle(repeats=1, number=5),
+        "cable_mission": bench_mission(duration=0.5),
+    }
+    f = figures["features"]
+    assert f["speedup_vs_regionprops"] == pytest.approx(f["regionprops_baseline_us"] / f["extract_moments_us"])
+    c = figures["control_cycle"]
+    assert c["share_of_frame_period"] == pytest.approx(c["control_cycle_us"] / c["frame_period_1900hz_us"])
+    m = figures["cable_mission"]
+    assert m["mission_sim_time_s"] == 0.5 and m["mission_real_time_factor"] > 0
+    assert set(m["per_cycle_us"]) >= {"simulated_sensor", "control_loop", "robot_move"}
+    json.dumps(figures)  # what `bench --json` prints
+    assert "real time" in format_bench(figures)
