@@ -14,11 +14,11 @@ from typing import Callable
 
 import numpy as np
 import py_trees
-from py_trees.common import Access, Status
+from py_trees.common import Status
 
 from tactile_bt import defaults
 from tactile_bt.behaviours import NAMESPACE, TactileBehaviour
-from tactile_bt.behaviours.base import KEYS
+from tactile_bt.behaviours.base import cycle_writer
 from tactile_bt.behaviours.record import ContactCloud
 from tactile_bt.control import ServoCommand
 from tactile_bt.features import extract
@@ -178,16 +178,7 @@ class ControlLoop:
         self.command = ServoCommand(defaults.TWIST_LINEAR_LIMIT_MPS, defaults.TWIST_ANGULAR_LIMIT_RPS)
         self.contacts = ContactCloud()
         self.smoother = FeatureSmoother(defaults.SMOOTHING_SAMPLES)
-        self.writer = py_trees.blackboard.Client(name="mission", namespace=NAMESPACE)
-        for key in KEYS:
-            self.writer.register_key(key=key, access=Access.WRITE)
-        w = self.writer
-        w.command = self.command
-        w.contacts = self.contacts
-        w.dt = self.dt
-        w.time = 0.0
-        w.pose = np.eye(4)
-        w.features = w.features_raw = None
+        self.writer = cycle_writer("mission", self.command, self.contacts, self.dt)
         tree.setup()
         leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
         self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]

@@ -18,10 +18,10 @@ from typing import Callable, Iterable
 
 import numpy as np
 import py_trees
-from py_trees.common import Access, Status
+from py_trees.common import Status
 
 from tactile_bt import defaults
-from tactile_bt.behaviours.base import KEYS, NAMESPACE
+from tactile_bt.behaviours.base import cycle_writer
 from tactile_bt.behaviours.record import ContactCloud
 from tactile_bt.control import ServoCommand
 from tactile_bt.features import ContactFeatures
@@ -81,15 +81,7 @@ class LeafHarness:
         self.time = 0.0
         self.command = ServoCommand(np.inf, np.inf)
         self.contacts = ContactCloud()
-        self._writer = py_trees.blackboard.Client(name="harness", namespace=NAMESPACE)
-        for key in KEYS:
-            self._writer.register_key(key=key, access=Access.WRITE)
-        w = self._writer
-        w.dt = self.dt
-        w.command = self.command
-        w.contacts = self.contacts
-        w.time = self.time
-        w.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
+        self._writer = cycle_writer("harness", self.command, self.contacts, self.dt, pose)
         self.set_features(features if features is not None else make_features())
         for node in behaviour.iterate():
             node.setup()

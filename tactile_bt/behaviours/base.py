@@ -26,7 +26,7 @@ from py_trees.common import Access, Status
 from tactile_bt import defaults
 from tactile_bt.control import PID, feature_error, inverse_task_jacobian
 
-__all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT"]
+__all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "cycle_writer"]
 
 NAMESPACE = "/tactile"
 KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts")
@@ -41,6 +41,24 @@ METRIC_OF_COMPONENT = {
     2: ("pressure_pa", 1.0),
     3: ("orientation_rad", 1.0),
 }
+
+
+def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | None = None):
+    """A blackboard client that owns the ``/tactile`` keys, with the mission's constant objects
+    (cycle command, contact cloud, control period in s) and an initial pose written.
+
+    The mission loop and :class:`tactile_bt.testing.LeafHarness` both start from it.
+    """
+    writer = py_trees.blackboard.Client(name=name, namespace=NAMESPACE)
+    for key in KEYS:
+        writer.register_key(key=key, access=Access.WRITE)
+    writer.command = command
+    writer.contacts = contacts
+    writer.dt = float(dt)
+    writer.time = 0.0
+    writer.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
+    writer.features = writer.features_raw = None
+    return writer
 
 
 class TactileBehaviour(py_trees.behaviour.Behaviour):

@@ -163,6 +163,12 @@ class RateSolution:
     scale: float
 
 
+def _homogeneous(frame) -> np.ndarray:
+    """4x4 matrix from a chain frame ``(x, y, z, p)`` (axis and origin lists, global frame)."""
+    x, y, z, p = frame
+    return np.array([x + [0.0], y + [0.0], z + [0.0], p + [1.0]]).T
+
+
 class LWR4Kinematics:
     """Forward and differential kinematics of the KUKA LWR 4 with a fingertip mount.
 
@@ -275,9 +281,7 @@ class LWR4Kinematics:
 
     def fk(self, q) -> np.ndarray:
         """Pose ``T_gs`` of the sensor frame in the global frame (4x4, metres)."""
-        x, y, z, p = self._chain(self._check_q(q))[7]
-        T = np.array([x + [0.0], y + [0.0], z + [0.0], p + [1.0]]).T
-        return T @ self.mount
+        return _homogeneous(self._chain(self._check_q(q))[7]) @ self.mount
 
     def fk_flange(self, q) -> np.ndarray:
         """Pose ``T_ge`` of the flange in the global frame (4x4, metres)."""
@@ -296,9 +300,7 @@ class LWR4Kinematics:
             cols.append((p[1] * z[2] - p[2] * z[1], p[2] * z[0] - p[0] * z[2], p[0] * z[1] - p[1] * z[0],
                          z[0], z[1], z[2]))
         J = np.array(cols).T
-        x, y, z, p = chain[7]
-        T = np.array([x + [0.0], y + [0.0], z + [0.0], p + [1.0]]).T @ self.mount
-        return T, J
+        return _homogeneous(chain[7]) @ self.mount, J
 
     def spatial_jacobian(self, q) -> np.ndarray:
         """Spatial Jacobian ``J`` (6x7): ``V_g = J(q) q_dot`` and ``tau = J(q)^T w_g``.
