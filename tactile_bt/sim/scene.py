@@ -14,13 +14,12 @@ from typing import Any
 
 import numpy as np
 import yaml
-from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
 from tactile_bt.sim.objects import Cable, Table, polyline_from_segments
 from tactile_bt.sim.sensor import SensorModel, SensorParams
-from tactile_bt.sim.world import CartesianMount, World
-from tactile_bt.spatial import make_pose
+from tactile_bt.sim.mounts import MOUNT_FIELDS, MountSpec
+from tactile_bt.sim.world import World
 from tactile_bt.yamlutil import Located, YamlError, load_located, parse_value, plain
 
 __all__ = ["Scene", "load_scene", "apply_overrides", "SceneError"]
@@ -51,7 +50,7 @@ TOP_LEVEL = {
 }
 SENSOR = {f.name: (_INT if f.type in ("int", int) else _NONNEGATIVE) for f in dataclasses.fields(SensorParams)}
 SENSOR.update(pitch=_POSITIVE, foam_stiffness=_POSITIVE)
-MOUNT = {"type": _STR, "position": _vec(3), "rpy_deg": _vec(3)}
+MOUNT = MOUNT_FIELDS
 OBJECTS = {
     "table": {"type": _STR, "height": _NUMBER, "stiffness": _POSITIVE, "friction": _NONNEGATIVE},
     "cable": {
@@ -129,13 +128,18 @@ class Scene:
     duration_s: float = 20.0
     seed: int = 0
     sensor: SensorParams = field(default_factory=SensorParams)
-    mount_pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+    mount: MountSpec = field(default_factory=MountSpec)
     objects: list = field(default_factory=list)
     data: dict = field(default_factory=dict)
 
     def build_world(self, rng: np.random.Generator) -> World:
         """A fresh world (sensor characteristics drawn from ``rng``)."""
-        return World(self.objects, SensorModel(self.sensor, rng), CartesianMount(self.mount_pose))
+        return World(self.objects, SensorModel(self.sensor, rng), self.mount.build())
+
+    @property
+    def mount_pose(self) -> np.ndarray:
+        """Start pose ``T_gs`` of the pad."""
+        return self.mount.pose
 
     @property
     def cable(self) -> Cable | None:
@@ -195,11 +199,12 @@ def build_scene(root: Located) -> Scene:
     if "sensor" in top:
         scene.sensor = SensorParams(**_fields(root.value["sensor"], SENSOR, "sensor."))
     if "mount" in top:
-        m = _fields(root.value["mount"], MOUNT, "mount.")
-        if m.get("type", "cartesian") != "cartesian":
-            raise root.value["mount"].value["type"].error("mount.type: only 'cartesian' is available")
-        rotation = Rotation.from_euler("xyz", m.get("rpy_deg", (180.0, 0.0, 0.0)), degrees=True)
-        scene.mount_pose = make_pose(rotation, m.get("position", (0.0, 0.0, 0.05)))
+        section = root.value["mount"]
+        try:
+            scene.mount = MountSpec(**_fields(section, MOUNT, "mount."))
+        except ValueError as exc:
+            where_ = section.value.get("type", section)
+            raise where_.error(str(exc)) from None
     scene.objects = [_build_object(item, i) for i, item in enumerate(top.get("objects", []))]
     return scene
 

@@ -5,27 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from tactile_bt.sim.mounts import CartesianMount
 from tactile_bt.sim.sensor import SensorModel
-from tactile_bt.spatial import integrate_spatial
 
 __all__ = ["CartesianMount", "World"]
-
-
-class CartesianMount:
-    """An ideal Cartesian mount: the pad follows the commanded base-frame twist exactly.
-
-    Parameters
-    ----------
-    pose : (4, 4) array
-        Initial ``T_gs`` (sensor frame in the base frame).
-    """
-
-    def __init__(self, pose: np.ndarray) -> None:
-        self.pose = np.array(pose, dtype=float)
-
-    def move(self, twist_g: np.ndarray, dt: float) -> None:
-        """Integrate the spatial twist ``twist_g`` ([v; ω], m/s, rad/s) for ``dt`` seconds."""
-        self.pose = integrate_spatial(self.pose, twist_g, dt)
 
 
 class World:

@@ -1,0 +1,134 @@
+"""What carries the pad: an ideal Cartesian mount, or the compliant KUKA LWR 4 of the paper.
+
+Scene section ``mount:``
+
+=============  ========================================  =====================================
+field          meaning                                   default
+=============  ========================================  =====================================
+``type``       ``cartesian`` (ideal) or ``lwr4`` (arm)    ``cartesian``
+``position``   start position of the pad centre (m)       ``[0, 0, 0.05]``
+``rpy_deg``    start orientation, extrinsic x-y-z (deg);  ``[180, 0, 0]``
+               ``[180, 0, yaw]`` points the pad down
+``base``       lwr4: arm base position (m); by default    start position minus the pad's
+               placed so the start is the arm's ready      offset in the ready posture
+               posture
+``stiffness``  lwr4: joint stiffness (N m/rad)            200 (paper Sec. V)
+``damping``    lwr4: joint damping (N m s/rad)            0.2 (paper Sec. V)
+=============  ========================================  =====================================
+
+The ideal mount follows the commanded twist exactly. The arm turns it into joint velocities by
+damped resolved rates; they move its equilibrium posture, and contact forces deflect it
+through the joint stiffness (:class:`tactile_bt.sim.arm.CompliantArm`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tactile_bt.spatial import integrate_spatial, make_pose
+
+__all__ = ["MountSpec", "CartesianMount", "ArmMount", "MOUNT_FIELDS", "MOUNT_TYPES"]
+
+MOUNT_TYPES = ("cartesian", "lwr4")
+#: Field → kind, for the scene validation in :mod:`tactile_bt.sim.scene`.
+MOUNT_FIELDS = {
+    "type": "string",
+    "position": "list of 3 numbers",
+    "rpy_deg": "list of 3 numbers",
+    "base": "list of 3 numbers",
+    "stiffness": "positive number",
+    "damping": "non-negative number",
+}
+
+
+class CartesianMount:
+    """An ideal Cartesian mount: the pad follows the commanded base-frame twist exactly.
+
+    Parameters
+    ----------
+    pose : (4, 4) array
+        Initial ``T_gs`` (sensor frame in the base frame).
+    """
+
+    def __init__(self, pose: np.ndarray) -> None:
+        self.pose = np.array(pose, dtype=float)
+
+    def attach(self, contact) -> None:
+        """An ideal mount feels no contact force."""
+
+    def move(self, twist_g: np.ndarray, dt: float) -> None:
+        """Integrate the spatial twist ``twist_g`` ([v; ω], m/s, rad/s) for ``dt`` seconds."""
+        self.pose = integrate_spatial(self.pose, twist_g, dt)
+
+
+class ArmMount:
+    """The pad on a compliant KUKA LWR 4: same interface as :class:`CartesianMount`.
+
+    Parameters
+    ----------
+    pose : (4, 4) array
+        Start pose ``T_gs`` of the pad; the arm is put there by inverse kinematics.
+    base : (3,) array or None
+        Arm base position in the world (m); None places it so that ``pose`` is reached from
+        the ready posture.
+    stiffness, damping : float
+        Joint stiffness (N m/rad) and damping (N m s/rad).
+    """
+
+    def __init__(self, pose: np.ndarray, base=None, stiffness: float = 200.0, damping: float = 0.2) -> None:
+        from tactile_bt.sim.arm import CompliantArm
+        from tactile_bt.sim.kinematics import Q_READY, LWR4Kinematics
+
+        kin = LWR4Kinematics()
+        if base is None:
+            base = np.asarray(pose[:3, 3]) - kin.fk(Q_READY)[:3, 3]
+        kin.base = make_pose(None, base)
+        try:
+            q0 = kin.ik_pose(np.asarray(pose, dtype=float), q0=Q_READY)
+        except ValueError as exc:
+            raise ValueError(f"mount: the arm cannot reach the start pose: {exc}") from None
+        self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping)
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Actual ``T_gs`` (deflected by contact forces)."""
+        return self.arm.pose
+
+    @property
+    def q(self) -> np.ndarray:
+        """Actual joint angles (rad)."""
+        return self.arm.q
+
+    def attach(self, contact) -> None:
+        """Let ``contact(T_gs) -> (wrench_g, K_x)`` deflect the arm."""
+        self.arm.contact = contact
+
+    def move(self, twist_g: np.ndarray, dt: float) -> None:
+        """Resolved rates for ``twist_g``, then one compliant step of ``dt`` seconds."""
+        self.arm.move(twist_g, dt)
+
+
+@dataclass
+class MountSpec:
+    """A validated ``mount:`` section; :meth:`build` makes a fresh mount for each world."""
+
+    type: str = "cartesian"
+    position: tuple = (0.0, 0.0, 0.05)
+    rpy_deg: tuple = (180.0, 0.0, 0.0)
+    base: tuple | None = None
+    stiffness: float = 200.0
+    damping: float = 0.2
+    pose: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        if self.type not in MOUNT_TYPES:
+            raise ValueError(f"mount.type: unknown mount {self.type!r}; valid: {', '.join(MOUNT_TYPES)}")
+        self.pose = make_pose(Rotation.from_euler("xyz", self.rpy_deg, degrees=True), self.position)
+
+    def build(self):
+        if self.type == "lwr4":
+            return ArmMount(self.pose, self.base, self.stiffness, self.damping)
+        return CartesianMount(self.pose)
