@@ -151,7 +151,8 @@ class SensorModel:
             if near.size:
                 local = (self._centres[near][:, None, :] + self._offsets[None, :, :]).reshape(-1, 3)
                 k = 1.0 / (1.0 / p.foam_stiffness + 1.0 / obj.area_stiffness)
-                # scale: mean over the sub-samples times the per-area stiffness times the area
+                # scale = k · A_sample: the stiffness of one sub-sample spring (N/m); a tactel's
+                # force is the sum over its samples of scale · depth
                 pairs.append((obj, near, local, k * self.tactel_area / len(self._offsets)))
         return pairs
 
@@ -185,6 +186,46 @@ class SensorModel:
         if force is None:
             return np.zeros((p.rows, p.cols)), 0.0
         return self.spread(force.reshape(p.rows, p.cols)), deepest
+
+    def contact(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, np.ndarray]:
+        """Contact wrench on the pad and its stiffness, for a compliant mount.
+
+        Every penetrating sub-sample is a spring of stiffness ``k · A`` along the pad normal
+        ``n`` (the Winkler model of :meth:`force_image`, before the foam's sensing spread).
+
+        Returns
+        -------
+        wrench_g : (6,) array
+            ``[f; τ]`` on the pad in the base frame, torque about the base origin (N, N m).
+        K_x : (6, 6) array
+            ``−d wrench / d ξ`` for a spatial displacement twist ξ of the pad:
+            ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
+        """
+        R, t = T_gs[:3, :3], T_gs[:3, 3]
+        corners = self._corners @ R.T + t
+        if (self._broad is None or objects is not self._broad_objects
+                or abs(corners - self._broad_corners).max() > self.BROAD_PHASE_MARGIN / 2):
+            self._broad = self._broad_phase(T_gs, corners, objects)
+            self._broad_corners = corners
+            self._broad_objects = objects
+        n = R[:, 2]
+        wrench = np.zeros(6)
+        K = np.zeros((6, 6))
+        for obj, near, local, scale in self._broad:
+            points = local @ R.T + t
+            depth = -obj.sdf(points)
+            touching = depth > 0.0
+            if not touching.any():
+                continue
+            p, d = points[touching], depth[touching]
+            k = scale  # per-sample stiffness k·A_sample (N/m), see _broad_phase
+            pxn = np.cross(p, n)
+            a = np.hstack((np.broadcast_to(n, p.shape), pxn))  # (m, 6)
+            f = k * d  # N per sample, pushing the pad back along −n
+            wrench[:3] -= n * f.sum()
+            wrench[3:] -= (f[:, None] * pxn).sum(axis=0)
+            K += k * (a.T @ a)
+        return wrench, K
 
     def spread(self, force: np.ndarray) -> np.ndarray:
         """Foam spread: a separable Gaussian of ``foam_spread`` tactels, truncated at 2.5 σ.

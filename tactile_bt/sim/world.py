@@ -27,6 +27,8 @@ class World:
         self.mount = mount
         self.last_force = np.zeros((sensor.params.rows, sensor.params.cols))
         self.last_penetration = 0.0
+        # A compliant mount feels the contact: wrench and stiffness from the pad model.
+        mount.attach(lambda T: sensor.contact(T, self.objects))
 
     @property
     def pose(self) -> np.ndarray:
