@@ -23,6 +23,8 @@ __all__ = ["run_bench", "format_bench"]
 ROOT = Path(__file__).resolve().parent.parent
 TREE = ROOT / "trees" / "cable_follow.yaml"
 SCENE = ROOT / "sim" / "cable.yaml"
+#: The cable scene with the pad on the ideal Cartesian mount instead of the compliant arm.
+IDEAL = ["mount.type=cartesian"]
 
 
 def _per_call(fn, repeats: int, number: int) -> float:
@@ -41,7 +43,7 @@ def _cable_frames(n: int = 32):
     """Raw frames and calibration of the pad pressing on the cable, at several poses."""
     from tactile_bt.sim.scene import load_scene
 
-    scene = load_scene(SCENE)
+    scene = load_scene(SCENE, IDEAL)
     world = scene.build_world(np.random.default_rng(0))
     T = world.pose.copy()
     rng = np.random.default_rng(1)
@@ -109,16 +111,16 @@ def bench_control_cycle(repeats: int = 7, number: int = 500) -> dict:
     }
 
 
-def bench_mission(duration: float = 20.0) -> dict:
+def bench_mission(duration: float = 20.0, overrides: list[str] | None = None) -> dict:
     """Closed-loop cable mission; the time split between simulator and control loop."""
     from tactile_bt.loader import load_tree
     from tactile_bt.mission import ControlLoop, run_mission
     from tactile_bt.sim.scene import load_scene
     from tactile_bt.spatial import body_to_spatial
 
-    result = run_mission(TREE, SCENE, duration=duration, seed=0)
+    result = run_mission(TREE, SCENE, duration=duration, seed=0, overrides=overrides)
     # Where the time goes: the same loop, timed per stage.
-    scene = load_scene(SCENE)
+    scene = load_scene(SCENE, overrides)
     world = scene.build_world(np.random.default_rng(0))
     loop = ControlLoop(load_tree(TREE), world.calibration, 1.0 / scene.rate_hz, profile=True)
     stages = np.zeros(3)
@@ -135,16 +137,17 @@ def bench_mission(duration: float = 20.0) -> dict:
     stages = stages / n * 1e6
     perception, tick = (np.array(loop.stage_times) / loop.stage_cycles * 1e6).tolist()
     return {
-        "mission_real_time_factor": result.report["real_time_factor"],
-        "mission_sim_time_s": result.report["sim_time_s"],
-        "mission_wall_time_s": result.report["wall_time_s"],
+        "mount": scene.mount.type,
+        "real_time_factor": result.report["real_time_factor"],
+        "sim_time_s": result.report["sim_time_s"],
+        "wall_time_s": result.report["wall_time_s"],
         "target_real_time_factor": 25.0,
         "per_cycle_us": {
             "simulated_sensor": stages[0],
             "control_loop": stages[1],
             "of_which_perception": perception,
             "of_which_tree_tick_and_controller": tick,
-            "robot_move": stages[2],
+            "mount_move": stages[2],
         },
     }
 
@@ -155,18 +158,22 @@ def run_bench(quick: bool = False) -> dict:
     return {
         "features": bench_features(repeats, 100 if quick else 300),
         "control_cycle": bench_control_cycle(repeats, 200 if quick else 1000),
-        "cable_mission": bench_mission(5.0 if quick else 20.0),
+        "cable_mission_ideal_mount": bench_mission(5.0 if quick else 20.0, IDEAL),
+        "cable_mission_arm": bench_mission(5.0 if quick else 20.0),
     }
 
 
 def format_bench(figures: dict) -> str:
-    f, c, m = figures["features"], figures["control_cycle"], figures["cable_mission"]
+    f, c = figures["features"], figures["control_cycle"]
     lines = [
         f"feature extraction  {f['extract_moments_us']:7.1f} µs  vs regionprops {f['regionprops_baseline_us']:7.1f} µs"
         f"  → {f['speedup_vs_regionprops']:.1f}x faster (target ≥ {f['target_speedup']:.0f}x)",
         f"                    Hough orientation {f['extract_hough_us']:.1f} µs",
         f"control cycle       {c['control_cycle_us']:7.1f} µs  = {c['share_of_frame_period']:.0%} of the 1.9 kHz frame period",
-        f"cable mission       {m['mission_real_time_factor']:7.1f}x real time at 250 Hz (target ≥ {m['target_real_time_factor']:.0f}x)",
-        "  per cycle: " + ", ".join(f"{k} {v:.0f} µs" for k, v in m["per_cycle_us"].items()),
     ]
+    for key in ("cable_mission_ideal_mount", "cable_mission_arm"):
+        m = figures[key]
+        lines.append(f"cable mission ({m['mount']:9s}) {m['real_time_factor']:5.1f}x real time at 250 Hz "
+                     f"(target ≥ {m['target_real_time_factor']:.0f}x)")
+        lines.append("  per cycle: " + ", ".join(f"{k} {v:.0f} µs" for k, v in m["per_cycle_us"].items()))
     return "\n".join(lines)

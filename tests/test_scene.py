@@ -65,7 +65,7 @@ def test_cable_has_a_real_bend_and_length(cable_scene):
 
 def test_cable_scene_builds_a_world(cable_scene):
     world = cable_scene.build_world(np.random.default_rng(0))
-    assert_allclose(world.pose, cable_scene.mount_pose)
+    assert_allclose(world.pose, cable_scene.mount_pose, atol=1e-6)  # the arm reaches the start by IK
     frame = world.sense()
     assert frame.dtype == np.uint16 and frame.shape == (16, 16)
     # the pad starts above the objects: nothing touches

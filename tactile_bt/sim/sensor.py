@@ -20,6 +20,7 @@ import numpy as np
 
 from tactile_bt import defaults
 from tactile_bt.calibration import TactelCalibration
+from tactile_bt.spatial import skew
 
 __all__ = ["SensorParams", "SensorModel"]
 
@@ -116,6 +117,8 @@ class SensorModel:
         self._broad = None
         self._broad_corners = None
         self._broad_objects = None
+        self._last_key = None
+        self._last_samples: list = []
         self._spread_rows = self._spread_cols = None
         if p.foam_spread > 0:
             self._spread_rows = _gaussian_band(p.rows, p.foam_spread)
@@ -126,8 +129,9 @@ class SensorModel:
     BROAD_PHASE_MARGIN = 2.0e-3
 
     def invalidate(self) -> None:
-        """Forget the cached broad phase (call when objects move)."""
+        """Forget the cached broad phase and penetration (call when objects move)."""
         self._broad = None
+        self._last_key = None
 
     def _broad_phase(self, T_gs: np.ndarray, corners: np.ndarray, objects) -> list:
         """Per object, the tactels that may touch it while the pad stays within the margin.
@@ -156,13 +160,12 @@ class SensorModel:
                 pairs.append((obj, near, local, k * self.tactel_area / len(self._offsets)))
         return pairs
 
-    def force_image(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, float]:
-        """Noise-free tactel forces (N) and the largest penetration (m) for the pad at ``T_gs``.
-
-        A broad phase (cached while the pad moves less than ``BROAD_PHASE_MARGIN``) keeps only
-        the tactels that can touch each object; those are integrated over their sub-samples.
-        """
-        p = self.params
+    def _penetration(self, T_gs: np.ndarray, objects) -> list:
+        """Per touching object: (tactel indices, sample points (m, world), depths (m), stiffness
+        of one sample spring (N/m)). Cached for the last pose, which a compliant mount's contact
+        solve and the next frame usually share."""
+        if self._last_key is not None and objects is self._broad_objects and np.array_equal(T_gs, self._last_key):
+            return self._last_samples
         R, t = T_gs[:3, :3], T_gs[:3, 3]
         corners = self._corners @ R.T + t
         if (self._broad is None or objects is not self._broad_objects
@@ -170,21 +173,32 @@ class SensorModel:
             self._broad = self._broad_phase(T_gs, corners, objects)
             self._broad_corners = corners
             self._broad_objects = objects
-        force = None
-        deepest = 0.0
+        samples = []
         for obj, near, local, scale in self._broad:
-            depth = -obj.sdf(local @ R.T + t)
-            dmax = float(depth.max())
-            if dmax <= 0.0:
-                continue
-            deepest = max(deepest, dmax)
-            np.maximum(depth, 0.0, out=depth)
-            tactel = depth.reshape(near.size, -1).sum(axis=1) * scale
-            if force is None:
-                force = np.zeros(p.rows * p.cols)
-            force[near] = np.maximum(force[near], tactel)
-        if force is None:
+            points = local @ R.T + t
+            depth = -obj.sdf(points)
+            if depth.max() > 0.0:
+                samples.append((near, points, depth, scale))
+        self._last_key = T_gs.copy()
+        self._last_samples = samples
+        return samples
+
+    def force_image(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, float]:
+        """Noise-free tactel forces (N) and the largest penetration (m) for the pad at ``T_gs``.
+
+        A broad phase (cached while the pad moves less than ``BROAD_PHASE_MARGIN``) keeps only
+        the tactels that can touch each object; those are integrated over their sub-samples.
+        """
+        p = self.params
+        samples = self._penetration(T_gs, objects)
+        if not samples:
             return np.zeros((p.rows, p.cols)), 0.0
+        force = np.zeros(p.rows * p.cols)
+        deepest = 0.0
+        for near, _, depth, scale in samples:
+            deepest = max(deepest, float(depth.max()))
+            tactel = np.maximum(depth, 0.0).reshape(near.size, -1).sum(axis=1) * scale
+            force[near] = np.maximum(force[near], tactel)
         return self.spread(force.reshape(p.rows, p.cols)), deepest
 
     def contact(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, np.ndarray]:
@@ -201,30 +215,22 @@ class SensorModel:
             ``−d wrench / d ξ`` for a spatial displacement twist ξ of the pad:
             ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
         """
-        R, t = T_gs[:3, :3], T_gs[:3, 3]
-        corners = self._corners @ R.T + t
-        if (self._broad is None or objects is not self._broad_objects
-                or abs(corners - self._broad_corners).max() > self.BROAD_PHASE_MARGIN / 2):
-            self._broad = self._broad_phase(T_gs, corners, objects)
-            self._broad_corners = corners
-            self._broad_objects = objects
-        n = R[:, 2]
+        n = T_gs[:3, 2]
+        N = skew(n)
         wrench = np.zeros(6)
         K = np.zeros((6, 6))
-        for obj, near, local, scale in self._broad:
-            points = local @ R.T + t
-            depth = -obj.sdf(points)
+        for _, points, depth, k in self._penetration(T_gs, objects):
             touching = depth > 0.0
-            if not touching.any():
-                continue
             p, d = points[touching], depth[touching]
-            k = scale  # per-sample stiffness k·A_sample (N/m), see _broad_phase
-            pxn = np.cross(p, n)
-            a = np.hstack((np.broadcast_to(n, p.shape), pxn))  # (m, 6)
-            f = k * d  # N per sample, pushing the pad back along −n
-            wrench[:3] -= n * f.sum()
-            wrench[3:] -= (f[:, None] * pxn).sum(axis=0)
-            K += k * (a.T @ a)
+            # Σ over the springs, with a = [n; p × n] = [n; −N p] (N = [n]×):
+            #   wrench = −k Σ d a,   K_x = k Σ a aᵀ,
+            # written with the sums Σd, Σd·p, Σp and Σp·pᵀ.
+            wrench -= k * np.concatenate((d.sum() * n, -N @ (d @ p)))
+            pxn = -N @ p.sum(axis=0)
+            K[:3, :3] += (k * len(d)) * np.outer(n, n)
+            K[:3, 3:] += k * np.outer(n, pxn)
+            K[3:, :3] += k * np.outer(pxn, n)
+            K[3:, 3:] += k * (N @ (p.T @ p) @ N.T)
         return wrench, K
 
     def spread(self, force: np.ndarray) -> np.ndarray:
