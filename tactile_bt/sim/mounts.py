@@ -90,7 +90,8 @@ class ArmMount:
             q0 = kin.ik_pose(np.asarray(pose, dtype=float), q0=Q_READY)
         except ValueError as exc:
             raise ValueError(f"mount: the arm cannot reach the start pose: {exc}") from None
-        self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping)
+        # tol: joint-torque residual of the contact solve, 1e-3 N m ≈ a few µm at the pad.
+        self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping, tol=1e-3)
 
     @property
     def pose(self) -> np.ndarray:
