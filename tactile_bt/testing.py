@@ -1,5 +1,5 @@
-"""Helpers to unit-test tactile leaves without a simulator: fake features, a fake mission clock
-and access to the twist a leaf added.
+"""Helpers to unit-test tactile leaves and small trees without a simulator: fake features or
+scripted tactile frames, a fake mission clock, and access to the twist a leaf added.
 
 Example
 -------
@@ -10,23 +10,43 @@ Example
 <Status.RUNNING: 'RUNNING'>
 >>> bool(h.twist[2] > 0)                         # +z of the sensor frame, towards the object
 True
+
+The same through the real perception (calibration inverse, feature extraction, moving
+average), from force images or raw 12-bit counts:
+
+>>> from tactile_bt.testing import contact_frame
+>>> h = LeafHarness(ForceHold(target_pa=2000))
+>>> h.tick(frame=contact_frame(force_n=1.0))     # a line contact of 1 N
+<Status.RUNNING: 'RUNNING'>
+>>> round(h.features.force, 2), bool(h.twist[2] > 0)
+(1.0, True)
 """
 
 from __future__ import annotations
 
-from typing import Callable, Iterable
+import contextlib
+from typing import Callable, Iterable, Iterator
 
 import numpy as np
 import py_trees
-from py_trees.common import Status
+from py_trees.common import Access, Status
 
 from tactile_bt import defaults
 from tactile_bt.behaviours.base import cycle_writer
 from tactile_bt.behaviours.record import ContactCloud
+from tactile_bt.calibration import TactelCalibration
 from tactile_bt.control import ServoCommand
-from tactile_bt.features import ContactFeatures
+from tactile_bt.features import ContactFeatures, extract
+from tactile_bt.filters import FeatureSmoother
 
-__all__ = ["make_features", "LeafHarness"]
+__all__ = [
+    "make_features",
+    "contact_frame",
+    "raw_frame",
+    "FramePerception",
+    "LeafHarness",
+    "fresh_blackboard",
+]
 
 
 def make_features(
@@ -59,8 +79,85 @@ def make_features(
     )
 
 
+def contact_frame(
+    cop_px=(7.5, 7.5),
+    force_n: float = 2.0,
+    orientation_rad: float = np.pi / 2,
+    length_px: float = 6.0,
+    width_px: float = 2.0,
+    shape=(defaults.ROWS, defaults.COLS),
+) -> np.ndarray:
+    """Force image (N per tactel, ``(rows, cols)``) of a contact centred at ``cop_px``
+    (``[x, y]`` in tactels, pad centre (7.5, 7.5)) carrying ``force_n`` newtons.
+
+    ``length_px > 0`` gives a line contact (an edge, a pen, a cable) along ``orientation_rad``
+    (from +x towards +y) with a cross profile ``width_px`` wide; ``length_px = 0`` a round
+    contact of that width. Extraction sees a little less force (1–3 %): the binarisation
+    threshold cuts the contact's rim. The defaults cover 36 tactels: 2 N is then about 2.2 kPa. Built
+    with :mod:`tactile_bt.synthetic`.
+    """
+    from tactile_bt.synthetic import blob_contact, line_contact
+
+    if length_px > 0:
+        return line_contact(cop_px, orientation_rad, length_px, width_px, force_n, shape=tuple(shape))
+    return blob_contact(cop_px, width_px, force_n, shape=tuple(shape))
+
+
+def raw_frame(force_image, calibration: TactelCalibration | None = None, noise_counts: float = 0.0,
+              rng: np.random.Generator | None = None) -> np.ndarray:
+    """Raw 12-bit counts (integers, as the sensor sends them) of a force image, through
+    ``calibration`` (nominal tactels by default), with optional Gaussian noise in counts."""
+    image = np.asarray(force_image, dtype=float)
+    cal = calibration if calibration is not None else TactelCalibration.nominal(*image.shape)
+    raw = cal.raw_from_force(image)
+    if noise_counts > 0:
+        raw = raw + (rng if rng is not None else np.random.default_rng(0)).normal(0.0, noise_counts, image.shape)
+    return np.clip(np.rint(raw), 0, defaults.ADC_MAX).astype(np.uint16)
+
+
+class FramePerception:
+    """The mission's perception of one frame: raw counts → calibration inverse → force image →
+    :func:`~tactile_bt.features.extract` → :class:`~tactile_bt.filters.FeatureSmoother`.
+
+    Call it with a force image (``force=``, N per tactel) or raw counts (``raw=``); it returns
+    ``(features_raw, features)`` — unsmoothed and smoothed, as the leaves see them on the
+    blackboard. The moving average runs across calls, as in a mission; :meth:`reset` forgets it.
+
+    Parameters
+    ----------
+    calibration : TactelCalibration, optional
+        Inverse characteristic for raw counts (nominal tactels by default).
+    threshold : float
+        Binarisation threshold (N per tactel).
+    method : "moments", "hough" or None
+        Orientation method (None: orientation NaN, as when no running leaf needs it).
+    smoothing : int
+        Samples of the moving average (paper: 10).
+    """
+
+    def __init__(self, calibration: TactelCalibration | None = None,
+                 threshold: float = defaults.CONTACT_THRESHOLD_N, method: str | None = "moments",
+                 smoothing: int = defaults.SMOOTHING_SAMPLES) -> None:
+        self.calibration = calibration if calibration is not None else TactelCalibration.nominal()
+        self.threshold = float(threshold)
+        self.method = method
+        self.smoother = FeatureSmoother(smoothing)
+
+    def reset(self) -> None:
+        """Forget the moving average."""
+        self.smoother.reset()
+
+    def __call__(self, force=None, raw=None) -> tuple[ContactFeatures, ContactFeatures]:
+        if (force is None) == (raw is None):
+            raise ValueError("give either a force image (force=) or raw counts (raw=)")
+        image = self.calibration.force_from_raw(raw) if raw is not None else np.asarray(force, dtype=float)
+        f_raw = extract(image, self.threshold, self.method)
+        return f_raw, self.smoother(f_raw)
+
+
 class LeafHarness:
-    """Tick one behaviour (or a small tree) against fake features and a fake mission clock.
+    """Tick one behaviour (or a small tree) against fake features or scripted tactile frames and
+    a fake mission clock.
 
     Parameters
     ----------
@@ -72,32 +169,76 @@ class LeafHarness:
         Initial features (default: a centred contact at the target pressure).
     pose : (4, 4) array, optional
         ``T_gs`` of the pad (default identity).
+    perception : FramePerception, optional
+        Used for ``tick(frame=...)`` and ``tick(raw=...)`` (default: nominal calibration,
+        moments, 10-sample smoothing).
     """
 
     def __init__(self, behaviour: py_trees.behaviour.Behaviour, dt: float = 1.0 / defaults.RATE_HZ,
-                 features: ContactFeatures | None = None, pose: np.ndarray | None = None) -> None:
+                 features: ContactFeatures | None = None, pose: np.ndarray | None = None,
+                 perception: FramePerception | None = None) -> None:
         self.behaviour = behaviour
         self.dt = float(dt)
         self.time = 0.0
         self.command = ServoCommand(np.inf, np.inf)
         self.contacts = ContactCloud()
+        self._perception = perception
         self._writer = cycle_writer("harness", self.command, self.contacts, self.dt, pose)
+        self._extra: py_trees.blackboard.Client | None = None
         self.set_features(features if features is not None else make_features())
         for node in behaviour.iterate():
             node.setup()
+
+    # -- inputs ------------------------------------------------------------------------------
+    @property
+    def perception(self) -> FramePerception:
+        """The frame pipeline of ``tick(frame=...)`` / ``tick(raw=...)`` (created on first use)."""
+        if self._perception is None:
+            self._perception = FramePerception()
+        return self._perception
 
     def set_features(self, features: ContactFeatures, raw: ContactFeatures | None = None) -> None:
         """Features seen from the next tick on (``raw``: unsmoothed, defaults to the same)."""
         self._writer.features = features
         self._writer.features_raw = raw if raw is not None else features
 
+    def set_frame(self, frame=None, raw=None) -> None:
+        """Features of a force image (``frame``, N per tactel) or of raw counts (``raw``),
+        through :attr:`perception`, seen from the next tick on."""
+        f_raw, f = self.perception(force=frame, raw=raw)
+        self.set_features(f, raw=f_raw)
+
     def set_pose(self, pose: np.ndarray) -> None:
         self._writer.pose = np.asarray(pose, dtype=float)
 
-    def tick(self, features: ContactFeatures | None = None) -> Status:
-        """Tick once (with new ``features`` if given), then advance the clock by ``dt``."""
+    def set(self, key: str, value) -> None:
+        """Write any blackboard ``key`` (absolute, e.g. ``/goal/pressure``), for leaves that read
+        one (``twist_key``, blackboard references)."""
+        if self._extra is None:
+            self._extra = py_trees.blackboard.Client(name="harness/extra")
+        key = key if key.startswith("/") else "/" + key
+        if not self._extra.is_registered(key, access=Access.WRITE):
+            self._extra.register_key(key=key, access=Access.WRITE)
+        self._extra.set(key, value)
+
+    @property
+    def features(self) -> ContactFeatures:
+        """The (smoothed) features of the last / next tick."""
+        return self._writer.features
+
+    @property
+    def features_raw(self) -> ContactFeatures:
+        """The unsmoothed features of the last / next tick."""
+        return self._writer.features_raw
+
+    # -- ticking -----------------------------------------------------------------------------
+    def tick(self, features: ContactFeatures | None = None, *, frame=None, raw=None) -> Status:
+        """Tick once — with new ``features``, or the features of a force image ``frame`` or of
+        raw counts ``raw`` through the real perception — then advance the clock by ``dt``."""
         if features is not None:
             self.set_features(features)
+        elif frame is not None or raw is not None:
+            self.set_frame(frame=frame, raw=raw)
         self._writer.time = self.time
         self.command.clear()
         self.behaviour.tick_once()
@@ -105,26 +246,72 @@ class LeafHarness:
         return self.behaviour.status
 
     def tick_until(self, done: Callable[[Status], bool] | Status = Status.SUCCESS, max_ticks: int = 10_000,
-                   features: Iterable[ContactFeatures] | None = None) -> int:
+                   features: Iterable[ContactFeatures] | None = None, frames: Iterable | None = None,
+                   raw_frames: Iterable | None = None) -> int:
         """Tick until ``done(status)`` (or the status equals ``done``); return the number of ticks.
 
-        ``features`` may script one feature set per tick. Raises ``AssertionError`` when
-        ``max_ticks`` pass first.
+        ``features``, ``frames`` (force images) or ``raw_frames`` (raw counts) may script one
+        input per tick; when the script ends first the last input stays. Raises
+        ``AssertionError`` when ``max_ticks`` pass first.
         """
         test = done if callable(done) else (lambda s: s == done)
-        script = iter(features) if features is not None else None
+        scripts = [s for s in (features, frames, raw_frames) if s is not None]
+        if len(scripts) > 1:
+            raise ValueError("script one kind of input: features, frames or raw_frames")
+        script = iter(scripts[0]) if scripts else None
         for n in range(1, max_ticks + 1):
-            status = self.tick(next(script) if script is not None else None)
+            item = next(script, None) if script is not None else None
+            if item is None:
+                status = self.tick()
+            elif features is not None:
+                status = self.tick(item)
+            elif frames is not None:
+                status = self.tick(frame=item)
+            else:
+                status = self.tick(raw=item)
             if test(status):
                 return n
         raise AssertionError(f"{self.behaviour.name}: still {self.behaviour.status} after {max_ticks} ticks")
 
+    def tick_for(self, seconds: float, **script) -> Status:
+        """Tick for ``seconds`` of mission time (``round(seconds / dt)`` ticks, at least one),
+        or until the behaviour finishes (SUCCESS or FAILURE) if that comes first; return the
+        last status. ``script``: ``features``, ``frames`` or ``raw_frames`` as in
+        :meth:`tick_until`."""
+        n = max(1, int(round(seconds / self.dt)))
+        count = [0]
+
+        def done(status: Status) -> bool:
+            count[0] += 1
+            return count[0] >= n or status in (Status.SUCCESS, Status.FAILURE)
+
+        self.tick_until(done, max_ticks=n, **script)
+        return self.behaviour.status
+
+    # -- outputs -----------------------------------------------------------------------------
     @property
     def twist(self) -> np.ndarray:
         """Summed sensor-frame twist ``[vx, vy, vz, wx, wy, wz]`` added during the last tick."""
         return self.command.twist()
 
+    def twist_of(self, name: str | py_trees.behaviour.Behaviour) -> np.ndarray:
+        """The twist part one leaf (by name or object) added during the last tick (zeros if none)."""
+        key = name if isinstance(name, str) else name.name
+        part = self.command.parts.get(key)
+        return np.zeros(6) if part is None else part
+
     @property
     def errors(self) -> dict[str, float]:
         """Errors (measured − target, metric units) reported during the last tick."""
         return dict(self.command.errors)
+
+
+@contextlib.contextmanager
+def fresh_blackboard() -> Iterator[None]:
+    """Clear the py_trees blackboard before and after the block (every test should start from
+    an empty one: keys and clients are global)."""
+    py_trees.blackboard.Blackboard.clear()
+    try:
+        yield
+    finally:
+        py_trees.blackboard.Blackboard.clear()

@@ -636,3 +636,109 @@ def test_contact_cloud_grows_beyond_its_capacity():
     assert len(cloud) == 5
     assert_array_equal(cloud.points[:, 0], np.arange(5))
     assert cloud.data.shape == (5, len(ContactCloud.COLUMNS))
+
+
+# --------------------------------------------------------------------------------- parameters, feedback
+
+
+def test_tactile_servo_converges_on_the_components_its_projection_controls():
+    """P = diag(0,0,1,0,0,0): COP far off and orientation undefined do not hold back convergence."""
+    leaf = TactileServo(P=(0, 0, 1, 0, 0, 0), converge=True, band=(1e-4, 1e-4, 50.0, 0.01), dwell_s=0.25)
+    h = LeafHarness(leaf, dt=DT)
+    f = make_features(pressure=2010.0, cop_px=(14.0, 1.0), orientation=float("nan"))
+    assert h.tick_until(Status.SUCCESS, max_ticks=100, features=iter(lambda: f, None)) == 33
+    assert "(converged)" in leaf.feedback_message
+
+
+def test_tactile_servo_uses_only_the_features_of_its_rows():
+    """The mission computes the orientation only for running leaves that use it."""
+    assert TactileServo(P=(0, 0, 1, 0, 0, 0)).uses == {"pressure"}
+    assert TactileServo(P=(1, 1, 0, 1, 1, 0)).uses == {"cop"}
+    assert TactileServo(P=(0, 0, 1, 0, 0, 1)).uses == {"pressure", "orientation"}
+
+
+@pytest.mark.parametrize(
+    "make,needle",
+    [
+        (lambda: ForceHold(kp=-1.0), "kp must not be negative"),
+        (lambda: Centre(target_m=(0.0, 0.0, 0.0)), "target_m"),
+        (lambda: TactileServo(kp=(1.0, 2.0)), "kp must be one number or 4 numbers"),
+        (lambda: TactileServo(target_m=(0.0,)), "target_m"),
+        (lambda: ForceHold(band=-1.0), "band must not be negative"),
+        (lambda: ContactLost(grace_s=-0.1), "grace_s"),
+        (lambda: ForceLimit(limit_n=0.0), "limit_n"),
+        (lambda: Approach(timeout_s=0.0), "timeout_s"),
+        (lambda: RecordContacts(min_spacing_m=-1.0), "min_spacing_m"),
+    ],
+)
+def test_bad_parameter_values_name_the_parameter(make, needle):
+    with pytest.raises(ValueError, match=needle):
+        make()
+
+
+def test_set_parameter_goes_through_the_same_checks_and_updates_derived_state():
+    leaf = ForceHold(kp=1e-6, ki=0.0)
+    leaf.set_parameter("kp", 2e-6)
+    leaf.set_parameter("output_limit", 0.001)
+    assert leaf.pid.kp == [2e-6] and leaf.pid.output_limit == [0.001]
+    with pytest.raises(ValueError, match="kp"):
+        leaf.set_parameter("kp", -1.0)
+    with pytest.raises(ValueError, match="fixed"):
+        leaf.set_parameter("name", "other")
+    slide = GuidedSlide()
+    slide.set_parameter("twist", (0.03, 0.04, 0.0, 0.0, 0.0, 0.0))
+    assert slide._speed == pytest.approx(0.05)
+    with pytest.raises(ValueError, match="twist"):
+        slide.set_parameter("twist", (1.0, 2.0))
+    roll = Roll()
+    with pytest.raises(ValueError, match="fixed"):
+        roll.set_parameter("roll_radius", 0.1)
+
+
+def test_bind_blackboard_in_python():
+    from tactile_bt.behaviours import bind_blackboard
+
+    leaf = Centre()
+    bind_blackboard(leaf, "target_m", "/goal/cop")
+    h = LeafHarness(leaf, dt=DT)
+    h.set("/goal/cop", (PITCH, 0.0))
+    h.tick(make_features(cop_px=(7.5, 7.5)))
+    assert leaf.target_m == (PITCH, 0.0)
+    assert h.errors["cop_x_px"] == pytest.approx(-1.0)
+    with pytest.raises(ValueError, match="fixed"):
+        bind_blackboard(RecordContacts(), "point", "/x")
+    with pytest.raises(ValueError, match="no parameter"):
+        bind_blackboard(Centre(), "target_pa", "/x")
+
+
+@pytest.mark.parametrize(
+    "leaf,features,expected",
+    [
+        (lambda: ForceHold(), make_features(pressure=1500.0), "pressure_pa=-500"),
+        (lambda: Centre(), make_features(cop_px=(9.5, 7.5)), "cop_x_px=+2"),
+        (lambda: AlignEdge(), make_features(orientation=1.5), "orientation_rad"),
+        (lambda: ForceHold(), make_features(in_contact=False), "no contact"),
+        (lambda: Approach(), make_features(in_contact=False), "approaching, 0.1 mm"),  # 10 mm/s for 1/128 s
+        (lambda: GuidedSlide(), make_features(), "sliding, 0.2 mm"),
+        (lambda: GuidedSlide(), make_features(in_contact=False), "waiting for contact"),
+        (lambda: ContactLost(), make_features(in_contact=False), "no contact for 0.00 s"),
+        (lambda: ForceLimit(), make_features(pressure=2000.0, area=40), "force 2.00 N"),
+        (lambda: RecordContacts(), make_features(), "1 contacts"),
+        (lambda: RecordContacts(), make_features(in_contact=False), "0 contacts, not in contact"),
+        (lambda: MissionTimeout(GuidedSlide(), duration_s=2.0), make_features(), "0.00 / 2 s"),
+    ],
+)
+def test_every_leaf_says_what_it_is_doing(leaf, features, expected):
+    h = LeafHarness(leaf(), dt=DT)
+    h.tick(features)
+    assert expected in h.behaviour.feedback_message
+
+
+def test_feedback_after_finishing():
+    h = LeafHarness(Approach(pressure_pa=800.0), dt=DT)
+    h.tick(make_features(in_contact=False))
+    h.tick(make_features(pressure=900.0))
+    assert h.behaviour.feedback_message == "contact at 900 Pa after 0.1 mm"
+    h = LeafHarness(ForceLimit(limit_n=1.0), dt=DT)
+    h.tick(make_features(pressure=2000.0, area=40))
+    assert h.behaviour.feedback_message == "force 2.00 N above the limit 1 N"

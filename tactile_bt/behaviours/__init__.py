@@ -1,8 +1,15 @@
-"""py_trees leaves for every tactile servoing primitive, and the registry the YAML loader uses."""
+"""py_trees leaves for every tactile servoing primitive, and the registry the YAML loader uses.
+
+Every class takes typed keyword parameters with defaults, units in their names (``target_pa``,
+``speed_mps``, ``grace_s``); the YAML node types below map to these classes, so a tree built in
+Python and one loaded from YAML are the same objects.
+"""
 
 from tactile_bt.behaviours.base import NAMESPACE, ServoLeaf, TactileBehaviour
+from tactile_bt.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.behaviours.motion import Approach, GuidedSlide
+from tactile_bt.behaviours.parameters import BlackboardReferenceError, bind_blackboard
 from tactile_bt.behaviours.record import ContactCloud, RecordContacts
 from tactile_bt.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 
@@ -20,7 +27,13 @@ LEAVES = {
     "force_limit": ForceLimit,
 }
 #: YAML node type → decorator class (first argument: the child).
-DECORATORS = {"mission_timeout": MissionTimeout}
+DECORATORS = {
+    "mission_timeout": MissionTimeout,
+    "retry": Retry,
+    "repeat": Repeat,
+    "inverter": Inverter,
+    "oneshot": OneShot,
+}
 
 __all__ = [
     "NAMESPACE",
@@ -38,6 +51,12 @@ __all__ = [
     "ContactLost",
     "ForceLimit",
     "MissionTimeout",
+    "Retry",
+    "Repeat",
+    "Inverter",
+    "OneShot",
+    "BlackboardReferenceError",
+    "bind_blackboard",
     "LEAVES",
     "DECORATORS",
 ]

@@ -66,10 +66,17 @@ class TactileBehaviour(py_trees.behaviour.Behaviour):
 
     Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
     ``"orientation"``); the mission computes only what the running leaves use.
+
+    Parameters
+    ----------
+    name : str
+        Name of the node: shown in the tree display, and the source of the twist part it adds.
     """
 
     uses: frozenset[str] = frozenset()
     writes: tuple[str, ...] = ()
+    #: Parameters that shape the leaf at construction and so cannot follow a blackboard key.
+    fixed_parameters: frozenset[str] = frozenset({"name"})
 
     def __init__(self, name: str) -> None:
         super().__init__(name=name)
@@ -101,6 +108,17 @@ class TactileBehaviour(py_trees.behaviour.Behaviour):
         """``T_gs`` of this cycle."""
         return _STORAGE[_POSE]
 
+    def set_parameter(self, name: str, value) -> None:
+        """Change parameter ``name`` (already checked against its type) between runs.
+
+        Blackboard references call this when the leaf starts; subclasses override it for
+        parameters with derived state or range checks, and their ``__init__`` goes through the
+        same checks.
+        """
+        if name in self.fixed_parameters:
+            raise ValueError(f"{self.name}: {name} is fixed at construction")
+        setattr(self, name, value)
+
     def setup(self, **kwargs) -> None:
         """Bind the mission's constant objects: the control period and the cycle command.
 
@@ -126,15 +144,21 @@ class ServoLeaf(TactileBehaviour):
     output_limit : float or list of float
         Largest command per component (m/s for positions and force, rad/s for angles).
     converge : bool
-        Succeed on convergence instead of running forever.
+        Succeed once the error stays inside ``band`` for ``dwell_s``; otherwise run until the
+        parent stops the leaf.
     band : float or list of float
         Convergence band per component, in the component's error unit (m, Pa or rad).
     dwell_s : float
-        Time the errors must stay inside ``band`` (s).
+        Time the errors must stay inside ``band`` (s, mission clock).
+    roll_radius : float
+        Rolling radius r of the rows ωx = +Δy/r, ωy = −Δx/r of J⁻¹ (m).
     """
 
     components: tuple[int, ...] = ()
     rows: tuple[int, ...] = ()
+    #: Units of the parameters whose names carry none (gains, limits, band), per subclass.
+    parameter_units: dict[str, str] = {}
+    fixed_parameters = frozenset({"name", "roll_radius"})
 
     def __init__(
         self,
@@ -150,12 +174,7 @@ class ServoLeaf(TactileBehaviour):
     ) -> None:
         super().__init__(name)
         n = len(self.components)
-        self.pid = PID(
-            np.broadcast_to(np.asarray(kp, float), (n,)),
-            ki,
-            kd,
-            output_limit,
-        )
+        self.pid = self._make_pid(kp, ki, kd, output_limit)
         P = np.zeros((6, 6))
         P[list(self.rows), list(self.rows)] = 1.0
         # Columns of P·J⁻¹ for this leaf's components: a 6×n map from u to the twist part.
@@ -168,11 +187,51 @@ class ServoLeaf(TactileBehaviour):
         self._active = [j for j in range(n) if self._rows_of[j]]
         self._metrics = [METRIC_OF_COMPONENT[c] for c in self.components]
         self.converge = bool(converge)
-        self.band = [float(b) for b in np.broadcast_to(np.asarray(band, float), (n,))]
-        self.dwell_s = float(dwell_s)
+        self.set_parameter("band", band)
+        self.set_parameter("dwell_s", dwell_s)
         self._inside_since: float | None = None
         self.last_error = [math.nan] * n
         self._last_twist = _ZERO_TWIST
+
+    def _make_pid(self, kp, ki, kd, output_limit) -> PID:
+        n = len(self.components)
+        gains = {}
+        for label, value in (("kp", kp), ("ki", ki), ("kd", kd), ("output_limit", output_limit)):
+            try:
+                array = np.broadcast_to(np.asarray(value, dtype=float), (n,))
+            except ValueError:
+                raise ValueError(f"{self.name}: {label} must be one number or {n} numbers "
+                                 f"(one per controlled component), got {value!r}") from None
+            if np.any(np.isnan(array)) or np.any(array < 0):
+                raise ValueError(f"{self.name}: {label} must not be negative, got {value!r}")
+            gains[label] = array
+        return PID(gains["kp"], gains["ki"], gains["kd"], gains["output_limit"])
+
+    def set_parameter(self, name: str, value) -> None:
+        """Gains (``kp``, ``ki``, ``kd``, ``output_limit``), ``band``, ``dwell_s`` and
+        ``converge`` as well as the subclass's targets."""
+        n = len(self.components)
+        if name in ("kp", "ki", "kd", "output_limit"):
+            pid = self.pid
+            gains = {"kp": pid.kp, "ki": pid.ki, "kd": pid.kd, "output_limit": pid.output_limit}
+            gains[name] = value
+            self.pid = self._make_pid(**gains)
+        elif name == "band":
+            try:
+                band = np.broadcast_to(np.asarray(value, dtype=float), (n,))
+            except ValueError:
+                raise ValueError(f"{self.name}: band must be one number or {n} numbers, got {value!r}") from None
+            if np.any(np.isnan(band)) or np.any(band < 0):
+                raise ValueError(f"{self.name}: band must not be negative, got {value!r}")
+            self.band = [float(b) for b in band]
+        elif name == "dwell_s":
+            if not value >= 0:
+                raise ValueError(f"{self.name}: dwell_s must not be negative, got {value!r}")
+            self.dwell_s = float(value)
+        elif name == "converge":
+            self.converge = bool(value)
+        else:
+            super().set_parameter(name, value)
 
     @property
     def last_twist(self) -> np.ndarray:
@@ -235,7 +294,8 @@ class ServoLeaf(TactileBehaviour):
         command.add(self.name, twist)
         self._feedback = None  # formatted on demand from last_error (see feedback_message)
         if self.converge:
-            if all(abs(e) <= b for e, b in zip(error, self.band)):
+            band = self.band
+            if all(abs(error[j]) <= band[j] for j in self._active):
                 if self._inside_since is None:
                     self._inside_since = self.now
                 if self.now - self._inside_since >= self.dwell_s:

@@ -3,6 +3,8 @@ pressure is carried to the base frame through the forward kinematics ``T_gs``.""
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 from py_trees.common import Status
 
@@ -51,7 +53,8 @@ class ContactCloud:
 
 class RecordContacts(TactileBehaviour):
     """While RUNNING, append the contact point ``T_gs · cop`` of every cycle in contact to the
-    mission's contact cloud (``/tactile/contacts``). Never finishes by itself.
+    mission's contact cloud (``/tactile/contacts``). Never finishes by itself; the feedback
+    message counts the samples.
 
     Parameters
     ----------
@@ -64,16 +67,37 @@ class RecordContacts(TactileBehaviour):
     """
 
     uses = frozenset({"cop", "pressure"})
+    fixed_parameters = frozenset({"name", "point"})
 
-    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0, point: str = "cop") -> None:
+    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
+                 point: Literal["cop", "local"] = "cop") -> None:
         super().__init__(name)
         if point not in ("cop", "local"):
             raise ValueError(f"{name}: point must be 'cop' or 'local', got {point!r}")
         self.point = point
         if point == "local":
             self.uses = frozenset({"cop", "pressure", "orientation"})
-        self.min_spacing_m = float(min_spacing_m)
+        self.set_parameter("min_spacing_m", min_spacing_m)
         self._last: np.ndarray | None = None
+        self._in_contact = False
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "min_spacing_m" and not value >= 0:
+            raise ValueError(f"{self.name}: min_spacing_m must not be negative, got {value}")
+        super().set_parameter(name, float(value) if name == "min_spacing_m" else value)
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            contacts = getattr(self, "contacts", None)
+            n = len(contacts) if contacts is not None else 0
+            return f"{n} contacts" + ("" if self._in_contact else ", not in contact")
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -85,9 +109,11 @@ class RecordContacts(TactileBehaviour):
     def update(self) -> Status:
         f = self.features_raw
         cloud = self.contacts
+        self._feedback = None
         if not f.in_contact:
-            self.feedback_message = f"{len(cloud)} contacts, not in contact"
+            self._in_contact = False
             return Status.RUNNING
+        self._in_contact = True
         T = self.pose
         if self.point == "local":
             px = local_contact_point(f)
@@ -100,5 +126,4 @@ class RecordContacts(TactileBehaviour):
                 return Status.RUNNING
         cloud.append(point.tolist(), (-T[:3, 2]).tolist(), f.pressure, self.now)
         self._last = point
-        self.feedback_message = f"{len(cloud)} contacts"
         return Status.RUNNING
