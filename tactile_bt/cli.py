@@ -214,11 +214,12 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from tactile_bt.behaviours.parameters import BlackboardReferenceError
     from tactile_bt.yamlutil import YamlError
 
     try:
         return int(args.func(args) or 0)
-    except YamlError as exc:
+    except (YamlError, BlackboardReferenceError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

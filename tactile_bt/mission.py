@@ -141,9 +141,12 @@ def _resolve(tree, scene, overrides):
 
 
 def _failure_reason(root: py_trees.behaviour.Behaviour) -> str:
-    failed = [b for b in root.iterate() if b.status == Status.FAILURE and not b.children]
+    """Name and message of the deepest failed node that says why (a leaf, or a decorator such
+    as a timed-out mission_timeout whose child was merely stopped)."""
+    failed = [b for b in root.iterate() if b.status == Status.FAILURE and b.feedback_message]
     if failed:
-        return f"{failed[0].name}: {failed[0].feedback_message}"
+        node = failed[0]  # iterate() yields children before their parents
+        return f"{node.name}: {node.feedback_message}"
     return root.feedback_message
 
 

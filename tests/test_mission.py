@@ -135,3 +135,21 @@ def test_a_crash_mid_mission_keeps_every_cycle_up_to_it(tmp_path):
     assert log["t"][-1] == pytest.approx(explode.crashed_at - 0.004)
     assert len(log["t"]) == round(explode.crashed_at / 0.004)
     assert np.all(np.isfinite(log["position_m"]))
+
+
+TIMED = """
+root:
+  sequence:
+    children:
+      - approach: {}
+      - mission_timeout:
+          duration_s: 0.5
+          child: {force_hold: {}}
+"""
+
+
+def test_a_failed_mission_says_which_node_failed_and_why():
+    result = run_mission(load_tree("timed.yaml", text=TIMED), CABLE_SCENE, duration=3.0)
+    assert result.report["status"] == "failure"
+    assert result.report["reason"].startswith("mission_timeout: timed out after 0.5 s")
+    assert result.report["sim_time_s"] < 1.5
