@@ -8,11 +8,9 @@ given frame immediately (the closed-loop mission renders a frame, pushes it, and
 
 Faults (:class:`FaultConfig`) damage the byte stream the way real lines do.  Everything sent is
 logged in :attr:`DeviceEmulator.log`, so tests can check the driver's frames and counters
-against the ground truth.  To keep that ground truth exact, garbage never contains ``0xF0``,
-bit flips hit only bytes after the datagram id and never create a new header pattern, tears
-keep at least header and id, and a header pattern is only planted in undamaged frames that no
-garbage follows (the parser drops a frame that carries a datagram start and is followed by
-junk: on a real line that is far more often a torn datagram passing the checksum by chance).
+against the ground truth.  The faults, the damage they do and the log are
+:mod:`tactile_bt.hardware.faults` (re-exported here), which also says how the ground truth is
+kept exact.
 """
 
 from __future__ import annotations
@@ -23,7 +21,6 @@ import sys
 import threading
 import time
 import tty
-from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -31,93 +28,19 @@ import numpy as np
 
 from tactile_bt.defaults import ADC_MAX, COLS, MAX_SENSOR_RATE_HZ, ROWS
 from tactile_bt.hardware import protocol as P
+from tactile_bt.hardware.faults import _GARBAGE_ALPHABET  # noqa: F401 - re-exported
+from tactile_bt.hardware.faults import (
+    EmulatorLog,
+    FaultConfig,
+    SentFrame,
+    choose_fault,
+    flip_bit,
+    garbage_burst,
+    plant_header,
+    tear,
+)
 
 FrameSource = Callable[[], np.ndarray] | Iterable[np.ndarray] | str | Path | None
-_GARBAGE_ALPHABET = np.array([b for b in range(256) if b != P.HDR1], dtype=np.uint8)
-
-
-@dataclass
-class FaultConfig:
-    """Per-frame fault probabilities (0..1) of the emulated line.
-
-    ``garbage``: a burst of 1..``garbage_max`` random bytes after the frame; ``bitflip``: one
-    flipped bit; ``tear``: the datagram is cut short; ``pause``: the line goes quiet for
-    ``pause_s`` seconds after the frame; ``header``: the payload carries ``F0 C4 <id>`` in its
-    non-data bits (the frame stays valid).  At most one of bitflip/tear/header per frame.
-    """
-
-    garbage: float = 0.0
-    bitflip: float = 0.0
-    tear: float = 0.0
-    pause: float = 0.0
-    header: float = 0.0
-    garbage_max: int = 64
-    pause_s: float = 0.01
-
-    @classmethod
-    def parse(cls, spec: str | None) -> "FaultConfig":
-        """Parse ``"garbage=0.01,bitflip=0.01,tear=0.01,pause=0.001,header=0.05"``.
-
-        ``all=P`` sets the five probabilities at once.
-        """
-        cfg = cls()
-        names = {f.name: f.type for f in fields(cls)}
-        for item in filter(None, (s.strip() for s in (spec or "").split(","))):
-            key, _, value = item.partition("=")
-            key = key.strip()
-            try:
-                number = float(value)
-            except ValueError:
-                raise ValueError(f"fault spec {item!r}: expected name=number") from None
-            if key == "all":
-                for name in ("garbage", "bitflip", "tear", "pause", "header"):
-                    setattr(cfg, name, number)
-            elif key in names:
-                setattr(cfg, key, int(number) if key == "garbage_max" else number)
-            else:
-                raise ValueError(f"unknown fault {key!r}; known: all, {', '.join(names)}")
-        return cfg
-
-
-@dataclass(eq=False)
-class SentFrame:
-    """Ground truth of one emitted frame: values as the driver must decode them."""
-
-    index: int
-    values: np.ndarray
-    device_timestamp: int
-    fault: str | None = None  #: "bitflip" or "tear" (damaged), else None
-    header_pattern: bool = False  #: a header pattern was planted in the payload
-    pushed: bool = False
-
-
-@dataclass
-class EmulatorLog:
-    """What the emulator sent, in order: ``events`` is a list of ``(kind, value)`` with kinds
-    ``frame`` (index into ``frames``), ``garbage`` (bytes) and ``pause`` (seconds)."""
-
-    frames: list[SentFrame] = field(default_factory=list)
-    events: list[tuple[str, float]] = field(default_factory=list)
-    garbage_bytes: int = 0
-
-    def intact(self) -> list[SentFrame]:
-        """Frames sent undamaged: the driver must deliver exactly these."""
-        return [f for f in self.frames if f.fault is None]
-
-    def damaged(self) -> list[SentFrame]:
-        """Frames sent damaged: the driver must drop exactly these."""
-        return [f for f in self.frames if f.fault is not None]
-
-    def expected_resyncs(self) -> int:
-        """Runs of garbage/damaged frames that end in an intact frame (one resync each)."""
-        runs, in_run = 0, False
-        for kind, value in self.events:
-            if kind == "garbage" or (kind == "frame" and self.frames[int(value)].fault):
-                in_run = True
-            elif kind == "frame":
-                runs += in_run
-                in_run = False
-        return runs
 
 
 def synthetic_source(rows: int = ROWS, cols: int = COLS, rate_hz: float = MAX_SENSOR_RATE_HZ,
@@ -256,22 +179,16 @@ class DeviceEmulator:
         f, rng = self.faults, self._rng
         with self._lock:
             index = self.frames_sent
-            kind = None
-            r = rng.random()
-            for name, p in (("bitflip", f.bitflip), ("tear", f.tear), ("header", f.header)):
-                if r < p:
-                    kind = name
-                    break
-                r -= p
+            kind = choose_fault(f, rng)
             high = None
             if kind == "header":
-                values, high = self._plant_header(values)
+                values, high = plant_header(values, self._order, self.sensor_id, rng)
             ts = self._device_time()
             datagram = P.build_data_datagram(self.sensor_id, ts, P.encode_values(values, self._order, high))
             if kind == "bitflip":
-                datagram = self._flip(datagram)
+                datagram = flip_bit(datagram, rng)
             elif kind == "tear":
-                datagram = datagram[: int(rng.integers(3, len(datagram)))]
+                datagram = tear(datagram, rng)
             sent = self._write(datagram)
             fault = kind if kind in ("bitflip", "tear") else None
             if sent < len(datagram):
@@ -282,7 +199,7 @@ class DeviceEmulator:
                     self.log.frames.append(SentFrame(index, values, ts, fault, kind == "header", pushed))
                     self._log_event("frame", index)
             if f.garbage and rng.random() < f.garbage and kind != "header":
-                junk = rng.choice(_GARBAGE_ALPHABET, size=int(rng.integers(1, max(1, f.garbage_max) + 1))).tobytes()
+                junk = garbage_burst(f, rng)
                 self._write(junk)
                 self._log_event("garbage", len(junk))
                 self.log.garbage_bytes += len(junk)
@@ -294,29 +211,6 @@ class DeviceEmulator:
     def _log_event(self, kind: str, value: float) -> None:
         if self.keep_log:
             self.log.events.append((kind, value))
-
-    def _plant_header(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Make words w, w+1 read ``F0 C4 <id>``: value 0x4F0 with high nibble 0xC, then id."""
-        n = self.rows * self.cols
-        w = int(self._rng.integers(0, n - 1))
-        flat = values.ravel().copy()
-        flat[self._order[w]] = 0x4F0
-        flat[self._order[w + 1]] = (flat[self._order[w + 1]] & 0xF00) | self.sensor_id
-        high = np.zeros(n, dtype=np.uint16)
-        high[w] = 0xC
-        return flat.reshape(values.shape), high
-
-    def _flip(self, datagram: bytes) -> bytes:
-        count = datagram.count(P.HEADER)
-        for _ in range(64):
-            pos = int(self._rng.integers(3, len(datagram)))
-            damaged = bytearray(datagram)
-            damaged[pos] ^= 1 << int(self._rng.integers(0, 8))
-            if damaged.count(P.HEADER) == count and damaged[-1] != P.HDR1:
-                return bytes(damaged)
-        damaged = bytearray(datagram)
-        damaged[-1] ^= 0x01 if damaged[-1] != 0xF1 else 0x02
-        return bytes(damaged)
 
     def push(self, values: np.ndarray, timeout: float = 1.0) -> None:
         """Send exactly this frame now (waits up to ``timeout`` s for the host to stream)."""

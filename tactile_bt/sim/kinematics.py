@@ -19,61 +19,37 @@ origin of ``g``), so that ``V_g = Ad(T_gs) V_s`` and ``d/dt T_gs = [V_g] T_gs``.
 Jacobian gives ``V_g = J(q) q_dot``; its dual wrench ``[f; tau_O]`` (N, N m, torque about the
 origin of ``g``) maps to joint torques by ``tau = J(q)^T w``.
 
-DH parameters (source)
-----------------------
-Classic (distal) DH table of the LWR 4::
-
-    i   d_i [m]   a_i   alpha_i    joint limit     velocity limit
-    1   0.3105    0     +pi/2      +-170 deg       110 deg/s
-    2   0         0     -pi/2      +-120 deg       110 deg/s
-    3   0.4       0     -pi/2      +-170 deg       128 deg/s
-    4   0         0     +pi/2      +-120 deg       128 deg/s
-    5   0.39      0     +pi/2      +-170 deg       204 deg/s
-    6   0         0     -pi/2      +-120 deg       184 deg/s
-    7   0.078     0      0         +-170 deg       184 deg/s
-
-* Twists ``alpha_i``, ``d_3 = 0.40`` and ``d_5 = 0.39``: P. Corke's Robotics Toolbox for Python,
-  ``roboticstoolbox/models/DH/LWR4.py`` (standard ``RevoluteDH`` links, despite a comment there
-  calling them modified), which takes its table from A. De Luca, *Robotics 1 -- Exercise: DH
-  frames of the KUKA LWR 4*, http://www.diag.uniroma1.it/~deluca/rob1_en/09_Exercise_DH_KukaLWR4.pdf
-  (that model puts its base frame at the shoulder, ``d_1 = 0``, and the flange in a tool offset).
-* Base-to-shoulder ``d_1 = 0.3105 m``, wrist-to-flange ``d_7 = 0.078 m``, the joint axes, the
-  limits and the velocities: the LWR 4+ URDF of CentroEPiaggio/kuka-lwr
-  (``lwr_description/model/kuka_lwr.urdf.xacro``: 0.11 + 0.2005 m to the shoulder, 0.2 + 0.2 m and
-  0.2 + 0.19 m for the two long links, 0.078 m to the flange; joint 2 about ``-y``, joint 4 about
-  ``+y``, joint 6 about ``-y``), which this table reproduces exactly at ``q = 0`` (the arm
-  stretched straight up; ``tests/test_arm.py`` checks it).  KUKA's data sheet rounds the
-  shoulder height to 310 mm.
-
-The classic convention is used, not the modified (Craig) one: both give the same flange pose,
-they only attach the intermediate frames differently.
-
-Inverse kinematics
-------------------
-:meth:`LWR4Kinematics.resolved_rate` is damped least squares with a singular-value-based damping
-schedule (Chiaverini 1997; Maciejewski & Klein 1988; Nakamura & Hanafusa 1986 use the
-manipulability instead): ``lambda^2 = lambda_max^2 (1 - (sigma_min / eps)^2)`` when the smallest
-singular value ``sigma_min`` drops below ``eps``, 0 otherwise, so ``|q_dot| <= |V| / (2 lambda_max)``
-however close the arm is to a singularity.  Joint limits are handled by saturation in the
-null space (after Flacco, De Luca & Khatib 2012, "SNS"): a joint that would leave its range in
-the next step is fixed at the velocity that just reaches the limit, and the remaining joints
-are re-solved for the rest of the twist, so a 7-DOF arm keeps the commanded Cartesian motion
-while one joint rests on its stop.  Joint velocity limits scale the whole vector (the direction
-is kept).  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
-centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
-damped (approximate) solution independent of where the base origin lies.
+Where the rest lives
+--------------------
+The DH table (with its sources), the joint and velocity limits, the ready posture and the
+default fingertip mount are :mod:`tactile_bt.sim.lwr4_params`; resolved-rate motion
+(:meth:`LWR4Kinematics.resolved_rate`: damped least squares with joint-limit saturation in the
+null space) is :mod:`tactile_bt.sim.resolved_rate`.  This module re-exports their names; it
+holds the forward and differential kinematics and the pose IK :meth:`LWR4Kinematics.ik_pose`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tactile_bt import defaults
 from tactile_bt.spatial import adjoint, invert, make_pose, skew
+from tactile_bt.sim.lwr4_params import (
+    _DEG,
+    DEFAULT_MOUNT_OFFSET_M,
+    DH_A,
+    DH_ALPHA,
+    DH_D,
+    PAD_SIZE_M,
+    Q_MAX,
+    Q_MIN,
+    Q_READY,
+    QD_MAX,
+    default_mount,
+)
+from tactile_bt.sim.resolved_rate import RateSolution, ResolvedRateMixin, _dls
 
 __all__ = [
     "DH_D",
@@ -90,78 +66,6 @@ __all__ = [
     "LWR4Kinematics",
 ]
 
-_DEG = np.pi / 180.0
-
-#: Classic DH link offsets ``d_i`` in metres (see module docstring for the source).
-DH_D = np.array([0.3105, 0.0, 0.4, 0.0, 0.39, 0.0, 0.078])
-#: Classic DH link lengths ``a_i`` in metres (all zero for the LWR).
-DH_A = np.zeros(7)
-#: Classic DH link twists ``alpha_i`` in radians.
-DH_ALPHA = np.array([np.pi / 2, -np.pi / 2, -np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, 0.0])
-#: Joint limits in radians (KUKA LWR 4: +-170 deg for the turning joints, +-120 deg for the bending).
-Q_MAX = np.array([170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 170.0]) * _DEG
-Q_MIN = -Q_MAX
-#: Joint velocity limits in rad/s (LWR 4+ data, as in the CentroEPiaggio URDF).
-QD_MAX = np.array([110.0, 110.0, 128.0, 128.0, 204.0, 184.0, 184.0]) * _DEG
-#: A comfortable posture: elbow up, pad 0.54 m in front of the base (+x), normal pointing down
-#: (``z_s = -z_g``, ``x_s = -x_g``, ``y_s = +y_g``), 0.34 m above the base plane with the default
-#: mount; joints 30-90 deg from their limits, smallest singular value of the hybrid Jacobian 0.22.
-Q_READY = np.array([0.0, -30.0, 0.0, 90.0, 0.0, -60.0, 0.0]) * _DEG
-
-#: Distance from the flange to the pad centre along the flange z axis, in metres: a 30 mm
-#: adapter plate plus the 10 mm stack of the pad (carrier PCB, sensing layer and foam).
-DEFAULT_MOUNT_OFFSET_M = 0.04
-
-
-def default_mount(offset: float = DEFAULT_MOUNT_OFFSET_M) -> np.ndarray:
-    """Flange-to-sensor transform ``T_es`` of the default fingertip mount.
-
-    The 16x16 pad (80 x 80 mm at 5 mm pitch) is centred on the flange axis, ``offset`` metres
-    out along the flange ``z_e``; its axes are parallel to the flange's (``x_s = x_e``,
-    ``y_s = y_e``), so the sensing normal ``+z_s = +z_e`` points away from the flange, towards
-    whatever the fingertip touches.
-
-    Parameters
-    ----------
-    offset : float
-        Flange-to-pad-centre distance in metres (default 0.04 m).
-
-    Returns
-    -------
-    (4, 4) ndarray
-        ``T_es``.
-    """
-    return make_pose(None, (0.0, 0.0, float(offset)))
-
-
-#: Side length of the pad in metres (16 tactels x 5 mm), for drawing.
-PAD_SIZE_M = defaults.COLS * defaults.PITCH_M
-
-
-@dataclass
-class RateSolution:
-    """Diagnostics of one :meth:`LWR4Kinematics.resolved_rate` solve.
-
-    Attributes
-    ----------
-    q_dot : (7,) ndarray
-        Joint velocities in rad/s.
-    damping : float
-        Damping ``lambda`` actually used (same unit as the hybrid Jacobian, m/rad).
-    sigma_min : float
-        Smallest singular value of the hybrid Jacobian at ``q``.
-    saturated : (7,) ndarray of bool
-        Joints held at the velocity that reaches their position limit.
-    scale : float
-        Factor (<= 1) applied to respect the velocity limits.
-    """
-
-    q_dot: np.ndarray
-    damping: float
-    sigma_min: float
-    saturated: np.ndarray
-    scale: float
-
 
 def _homogeneous(frame) -> np.ndarray:
     """4x4 matrix from a chain frame ``(x, y, z, p)`` (axis and origin lists, global frame)."""
@@ -169,7 +73,7 @@ def _homogeneous(frame) -> np.ndarray:
     return np.array([x + [0.0], y + [0.0], z + [0.0], p + [1.0]]).T
 
 
-class LWR4Kinematics:
+class LWR4Kinematics(ResolvedRateMixin):
     """Forward and differential kinematics of the KUKA LWR 4 with a fingertip mount.
 
     Parameters
@@ -343,104 +247,6 @@ class LWR4Kinematics:
         """``q`` clipped into the joint limits."""
         return np.clip(np.asarray(q, float), self.q_min, self.q_max)
 
-    # ------------------------------------------------------------------ resolved rate
-    def resolved_rate(
-        self,
-        q,
-        twist_g,
-        dt: float | None = None,
-        damping: float = 0.05,
-        sigma_threshold: float = 0.05,
-        q_dot_null=None,
-        velocity_limits: bool = True,
-        return_info: bool = False,
-    ):
-        """Joint velocities that realise a spatial twist of the sensor (damped least squares).
-
-        Parameters
-        ----------
-        q : (7,) array
-            Current joint angles in rad (for the compliant arm: the equilibrium posture).
-        twist_g : (6,) array
-            Desired spatial twist ``V_g = Ad(T_gs) V_s`` of the sensor, global frame (m/s, rad/s).
-        dt : float, optional
-            Duration in s the velocities will be applied for.  With it, no joint passes its
-            limit at the end of the step (a joint driven into its limit stops exactly there);
-            without it, joints already at or beyond a limit only may not move further out.
-        damping : float
-            Largest damping ``lambda_max`` (m/rad), reached at a singularity.  ``0`` gives the
-            plain pseudo-inverse (with a rank cut-off, never inf).
-        sigma_threshold : float
-            ``eps``: damping switches on when the smallest singular value of the hybrid
-            Jacobian drops below it (m/rad).
-        q_dot_null : (7,) array, optional
-            Secondary joint velocity (rad/s), projected into the null space of the Jacobian
-            (posture keeping, limit avoidance); it does not disturb the Cartesian motion.
-        velocity_limits : bool
-            Scale the whole vector down so that ``|q_dot_i| <= qd_max_i`` (direction kept).
-        return_info : bool
-            Return a :class:`RateSolution` instead of the bare vector.
-
-        Returns
-        -------
-        (7,) ndarray or RateSolution
-            ``q_dot`` in rad/s, always finite.
-        """
-        q = self._check_q(q)
-        V = np.asarray(twist_g, dtype=float)
-        if V.shape != (6,) or not math.isfinite(float(V @ V)):
-            raise ValueError(f"twist_g must be 6 finite numbers, got {twist_g!r}")
-        if dt is not None and not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
-        null = None
-        if q_dot_null is not None:
-            null = np.asarray(q_dot_null, float)
-            if null.shape != (7,) or not math.isfinite(float(null @ null)):
-                raise ValueError("q_dot_null must be 7 finite numbers")
-        T, J = self.pose_and_jacobian(q)
-        S = skew(T[:3, 3])
-        Jh = J.copy()
-        Jh[:3] -= S @ J[3:]
-        Vh = V.copy()
-        Vh[:3] -= S @ V[3:]
-
-        # Velocity bounds that keep the joints inside their limits after dt.
-        if dt is None:
-            lo = np.where(q <= self.q_min, 0.0, -np.inf)
-            hi = np.where(q >= self.q_max, 0.0, np.inf)
-        else:
-            lo = np.minimum((self.q_min - q) / dt, 0.0)
-            hi = np.maximum((self.q_max - q) / dt, 0.0)
-
-        qd, lam, smin = _dls(Jh, Vh, damping, sigma_threshold, null)
-        free = np.ones(7, dtype=bool)
-        if not ((qd >= lo).all() and (qd <= hi).all()):
-            # Saturation in the null space: fix the worst offender at its bound, re-solve the rest.
-            for _ in range(7):
-                over = np.where(free, np.maximum(qd - hi, lo - qd), -np.inf)
-                j = int(np.argmax(over))
-                if over[j] <= 1e-12:
-                    break
-                qd[j] = min(max(qd[j], lo[j]), hi[j])
-                free[j] = False
-                if not free.any():
-                    break
-                rest = Vh - Jh[:, ~free] @ qd[~free]
-                qd[free] = _dls(Jh[:, free], rest, damping, sigma_threshold,
-                                None if null is None else null[free])[0]
-            qd = np.minimum(np.maximum(qd, lo), hi)
-        scale = 1.0
-        if velocity_limits:
-            peak = float(np.max(np.abs(qd) / self.qd_max))
-            if peak > 1.0:
-                scale = 1.0 / peak
-                qd = qd * scale
-        if not math.isfinite(float(qd @ qd)):  # cannot happen with finite inputs; belt and braces
-            qd = np.zeros(7)
-        if return_info:
-            return RateSolution(qd, lam, smin, ~free, scale)
-        return qd
-
     # ------------------------------------------------------------------ pose IK
     def ik_pose(
         self,
@@ -542,26 +348,3 @@ def _spatial_to_hybrid(J: np.ndarray, p: np.ndarray) -> np.ndarray:  # noqa: D40
     Jh = J.copy()
     Jh[:3] -= skew(p) @ J[3:]
     return Jh
-
-
-def _dls(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None):
-    """Damped least squares ``J^T (J J^T + lambda^2 I)^-1 V`` with the damping schedule.
-
-    Returns ``(x, lambda, sigma_min)``; ``null`` (optional) is projected on the null space of
-    ``J`` (the right singular vectors beyond the numerical rank) and added.
-    """
-    rows, n = J.shape
-    if n == 0:
-        return np.zeros(0), 0.0, 0.0
-    U, s, Vt = np.linalg.svd(J, full_matrices=null is not None)
-    m = s.shape[0]
-    # With fewer free joints than task rows the missing directions count as zero.
-    smin = float(s[-1]) if m == rows else 0.0
-    lam2 = lam_max * lam_max * (1.0 - (smin / eps) ** 2) if smin < eps else 0.0
-    denom = s * s + lam2
-    gain = np.divide(s, denom, out=np.zeros(m), where=denom > 1e-24)
-    x = Vt[:m].T @ (gain * (U[:, :m].T @ V))
-    if null is not None:
-        N = Vt[int(np.count_nonzero(s > 1e-9)):]
-        x += N.T @ (N @ null)
-    return x, math.sqrt(lam2), smin
