@@ -2,32 +2,54 @@
 
 Every object answers :meth:`SimObject.sdf`: the signed distance (m) of world points to its
 surface, negative inside; the penetration of a point is ``max(-sdf, 0)``. The signed distance
-is 1-Lipschitz, which lets the pad model skip tactels that cannot touch. The contact
-pressure at a point of the pad is ``k · depth`` with ``k`` the per-area stiffness of the object
-in series with the pad's foam (see :mod:`tactile_bt.sim.sensor`). An object's ``stiffness``
-is given in N/m, the force per metre of indentation over the reference contact area of the
-paper (40 tactels, :data:`CONTACT_REFERENCE_AREA_M2`).
+is 1-Lipschitz (exact for the primitives), which lets the pad model skip tactels that cannot
+touch. The contact pressure at a point of the pad is ``k · depth`` with ``k`` the per-area
+stiffness of the object in series with the pad's foam (see :mod:`tactile_bt.sim.sensor`). An
+object's ``stiffness`` is given in N/m, the force per metre of indentation over the reference
+contact area of the paper (40 tactels, :data:`CONTACT_REFERENCE_AREA_M2`). This per-area
+(Winkler) model makes soft objects deform: the deeper the pad presses, the larger the area
+that touches, so a soft ball (10² N/m) shows a wide contact and a rigid pen (10⁷ N/m) a line.
+
+Every object has a world pose ``pose`` (4×4, the object frame in the world); a subclass
+describes its shape in its own frame (:meth:`SimObject.local_sdf`, :meth:`SimObject.local_bounds`)
+and the base class transforms points into that frame. :meth:`SimObject.moved` returns a copy
+displaced in the world (scene events).
+
+Shapes: :class:`Table` and :class:`Cable` here, ``Box``, ``Sphere`` and ``Cylinder`` in
+:mod:`tactile_bt.sim.shapes`, triangle meshes in :mod:`tactile_bt.sim.mesh_object` (which
+imports trimesh only when a mesh is loaded).
 """
 
 from __future__ import annotations
 
+import copy
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
 
-__all__ = ["CONTACT_REFERENCE_AREA_M2", "SimObject", "Table", "Cable", "polyline_from_segments"]
+__all__ = ["CONTACT_REFERENCE_AREA_M2", "SimObject", "Table", "Cable", "polyline_from_segments", "object_pose"]
 
 #: Area (m²) over which an object's stiffness in N/m is spread to give a per-area stiffness:
 #: the paper's reference contact of 40 tactels.
 CONTACT_REFERENCE_AREA_M2 = 40 * defaults.TACTEL_AREA_M2
 
 
-@dataclass
+def object_pose(position=(0.0, 0.0, 0.0), rpy_deg=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """4×4 pose from a position (m) and extrinsic x-y-z angles (degrees), as in the scene files
+    (the same convention as the mount's ``rpy_deg``)."""
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("xyz", np.asarray(rpy_deg, dtype=float), degrees=True).as_matrix()
+    T[:3, 3] = np.asarray(position, dtype=float)
+    return T
+
+
+@dataclass(eq=False)
 class SimObject:
     """Base of the simulated objects.
 
@@ -38,39 +60,109 @@ class SimObject:
     friction : float
         Coulomb friction coefficient (kept for the scene schema; tangential forces are not
         simulated with an ideal mount).
+    pose : (4, 4) array, keyword only
+        The object frame in the world (default identity). See :func:`object_pose`.
+
+    Objects compare by identity (their fields hold arrays).
     """
 
     stiffness: float = 1.0e6
     friction: float = 0.3
+    pose: np.ndarray | None = field(default=None, kw_only=True, repr=False)
 
+    def __post_init__(self) -> None:
+        self._set_pose(self.pose)
+
+    def _set_pose(self, pose) -> None:
+        T = np.eye(4) if pose is None else np.array(pose, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise ValueError(f"pose must be a finite 4x4 transform, got {pose!r}")
+        R = T[:3, :3]
+        if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+            raise ValueError("pose: the rotation part must be a proper rotation matrix")
+        self.pose = T
+        self._R = np.ascontiguousarray(R)
+        self._t = T[:3, 3].copy()
+        #: Identity pose: points are used as they are (no transform on the hot path).
+        self._identity = bool(np.array_equal(T, np.eye(4)))
+        self._world_bounds = None
+
+    # ------------------------------------------------------------------ shape (object frame)
+    def local_sdf(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance (m) of ``(N, 3)`` points given in the object frame."""
+        raise NotImplementedError
+
+    def local_bounds(self) -> np.ndarray:
+        """``(2, 3)`` box ``[min, max]`` in the object frame that contains the object."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ world
     @property
     def area_stiffness(self) -> float:
         """Stiffness per area in Pa/m."""
         return self.stiffness / CONTACT_REFERENCE_AREA_M2
 
+    def to_local(self, points: np.ndarray) -> np.ndarray:
+        """World points ``(N, 3)`` in the object frame."""
+        if self._identity:
+            return points
+        return (points - self._t) @ self._R
+
     def bounds(self) -> np.ndarray:
-        """``(2, 3)`` axis-aligned box ``[min, max]`` (m) outside which there is no contact."""
-        raise NotImplementedError
+        """``(2, 3)`` axis-aligned box ``[min, max]`` (m, world) outside which there is no contact."""
+        if self._world_bounds is None:
+            b = np.asarray(self.local_bounds(), dtype=float)
+            if self._identity:
+                wb = b.copy()
+            elif not np.all(np.isfinite(b)):
+                # An unbounded shape (a table) keeps its bounds only if the pose keeps the axes.
+                if np.allclose(self._R, np.eye(3)):
+                    wb = b + self._t
+                else:
+                    wb = np.array([[-np.inf] * 3, [np.inf] * 3])
+            else:
+                centre, half = (b[0] + b[1]) / 2, (b[1] - b[0]) / 2
+                c = self._R @ centre + self._t
+                e = np.abs(self._R) @ half
+                wb = np.array([c - e, c + e])
+            wb.setflags(write=False)
+            self._world_bounds = wb
+        return self._world_bounds
 
     def sdf(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (m) of each ``(N, 3)`` world point to the surface, negative inside."""
-        raise NotImplementedError
+        return self.local_sdf(self.to_local(points))
 
     def penetration(self, points: np.ndarray) -> np.ndarray:
         """Depth (m, ≥ 0) of each ``(N, 3)`` world point inside the object."""
         return np.maximum(-self.sdf(points), 0.0)
 
+    def with_pose(self, pose: np.ndarray) -> "SimObject":
+        """A copy of the object at another world pose (shapes and grids are shared)."""
+        other = copy.copy(self)
+        other._set_pose(pose)
+        return other
 
-@dataclass
+    def moved(self, translate=(0.0, 0.0, 0.0), rotate_deg=(0.0, 0.0, 0.0)) -> "SimObject":
+        """A copy displaced in the world: first turned about its own origin by the extrinsic
+        x-y-z angles ``rotate_deg`` (degrees, world axes), then shifted by ``translate`` (m)."""
+        delta = Rotation.from_euler("xyz", np.asarray(rotate_deg, dtype=float), degrees=True).as_matrix()
+        T = self.pose.copy()
+        T[:3, :3] = delta @ T[:3, :3]
+        T[:3, 3] = T[:3, 3] + np.asarray(translate, dtype=float)
+        return self.with_pose(T)
+
+
+@dataclass(eq=False)
 class Table(SimObject):
-    """The half space below ``z = height`` (m)."""
+    """The half space below ``z = height`` (m) of its frame (the world's, by default)."""
 
     height: float = 0.0
 
-    def bounds(self) -> np.ndarray:
+    def local_bounds(self) -> np.ndarray:
         return np.array([[-np.inf, -np.inf, -np.inf], [np.inf, np.inf, self.height]])
 
-    def sdf(self, points: np.ndarray) -> np.ndarray:
+    def local_sdf(self, points: np.ndarray) -> np.ndarray:
         return points[:, 2] - self.height
 
 
@@ -145,7 +237,7 @@ def _lateral_distance_grid(path_bytes: bytes, n: int, cell: float, margin: float
     return grid, lo, s[-1]
 
 
-@dataclass
+@dataclass(eq=False)
 class Cable(SimObject):
     """A cable of circular cross-section lying on the table along a planar path.
 
@@ -157,6 +249,10 @@ class Cable(SimObject):
         Cable radius (m).
     table_height : float
         Height of the table top (m); the centreline lies at ``table_height + radius``.
+
+    All of these are in the cable's frame (``pose``, identity by default: the world's). The
+    metrics' helpers (:meth:`distance_to_centreline`, :meth:`arc_position`) take world ``xy``
+    and assume a pose that keeps the table horizontal (a shift and a turn about z).
     """
 
     path: np.ndarray = None
@@ -165,6 +261,7 @@ class Cable(SimObject):
     grid_cell: float = 0.002
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         self.path = np.ascontiguousarray(self.path, dtype=float)
         if self.path.ndim != 2 or self.path.shape[1] != 2 or len(self.path) < 2:
             raise ValueError("cable path must be an (N, 2) array with N >= 2")
@@ -175,10 +272,11 @@ class Cable(SimObject):
         )
         lo = self.path.min(axis=0) - self.radius
         hi = self.path.max(axis=0) + self.radius
-        self._bounds = np.array([[lo[0], lo[1], self.table_height], [hi[0], hi[1], self.table_height + 2 * self.radius]])
+        self._local_bounds = np.array([[lo[0], lo[1], self.table_height],
+                                       [hi[0], hi[1], self.table_height + 2 * self.radius]])
 
-    def bounds(self) -> np.ndarray:
-        return self._bounds
+    def local_bounds(self) -> np.ndarray:
+        return self._local_bounds
 
     def lateral_distance(self, xy: np.ndarray) -> np.ndarray:
         """Signed horizontal distance (m) of ``(N, 2)`` points from the centreline (bilinear on a
@@ -187,13 +285,27 @@ class Cable(SimObject):
         coords = ((xy - self._origin) * (1.0 / self.grid_cell)).T
         return ndimage.map_coordinates(self._grid, coords, order=1, mode="nearest", prefilter=False)
 
-    def sdf(self, points: np.ndarray) -> np.ndarray:
+    def local_sdf(self, points: np.ndarray) -> np.ndarray:
         lateral = self.lateral_distance(points[:, :2])
         dz = points[:, 2] - (self.table_height + self.radius)
         return np.sqrt(lateral * lateral + dz * dz) - self.radius
 
+    def centreline_world(self) -> np.ndarray:
+        """``(N, 3)`` world points of the centreline (for views and metrics)."""
+        local = np.column_stack((self.path, np.full(len(self.path), self.table_height + self.radius)))
+        return local if self._identity else local @ self._R.T + self._t
+
+    def _local_xy(self, xy: np.ndarray) -> np.ndarray:
+        """World ``(N, 2)`` table points in the cable's frame (taken at the centreline's height)."""
+        xy = np.asarray(xy, dtype=float)
+        if self._identity:
+            return xy
+        z = (self._R @ [0.0, 0.0, self.table_height + self.radius] + self._t)[2]
+        return self.to_local(np.column_stack((xy, np.full(len(xy), z))))[:, :2]
+
     def distance_to_centreline(self, xy: np.ndarray) -> np.ndarray:
         """Horizontal distance (m) of ``(N, 2)`` points to the true centreline (exact, for metrics)."""
+        xy = self._local_xy(xy)
         a = self.path[:-1]
         d = np.diff(self.path, axis=0)
         tree = cKDTree(self.path)
@@ -208,6 +320,7 @@ class Cable(SimObject):
 
     def arc_position(self, xy: np.ndarray) -> np.ndarray:
         """Arc length (m) along the centreline of the point nearest to each ``(N, 2)`` point."""
+        xy = self._local_xy(xy)
         s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(self.path, axis=0).T))))
         _, idx = cKDTree(self.path).query(xy)
         return s[idx]

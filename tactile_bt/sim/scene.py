@@ -2,7 +2,8 @@
 
 A scene lists the pad's sensor parameters, its mount and the objects; every key is checked
 against the schema below, and errors name the file, the line and the field. ``--set`` style
-overrides (``objects.1.stiffness=1e5``) go through the same checks.
+overrides (``objects.1.stiffness=1e5``) go through the same checks. The schema, with units and
+defaults, is documented in ``sim/README.md``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,9 @@ import numpy as np
 import yaml
 
 from tactile_bt import defaults
-from tactile_bt.sim.objects import Cable, Table, polyline_from_segments
+from tactile_bt.sim.events import EventSchedule, ObjectEvent
+from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
+from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.sensor import SensorModel, SensorParams
 from tactile_bt.sim.mounts import MOUNT_FIELDS, MountSpec
 from tactile_bt.sim.world import World
@@ -47,24 +50,33 @@ TOP_LEVEL = {
     "sensor": "mapping",
     "mount": "mapping",
     "objects": "list",
+    "events": "list",
 }
 SENSOR = {f.name: (_INT if f.type in ("int", int) else _NONNEGATIVE) for f in dataclasses.fields(SensorParams)}
 SENSOR.update(pitch=_POSITIVE, foam_stiffness=_POSITIVE)
 MOUNT = MOUNT_FIELDS
+#: Fields every object has: its type, pose in the world and contact properties.
+_COMMON = {"type": _STR, "position": _vec(3), "rpy_deg": _vec(3), "stiffness": _POSITIVE,
+           "friction": _NONNEGATIVE}
 OBJECTS = {
-    "table": {"type": _STR, "height": _NUMBER, "stiffness": _POSITIVE, "friction": _NONNEGATIVE},
+    "table": {**_COMMON, "height": _NUMBER},
     "cable": {
-        "type": _STR,
+        **_COMMON,
         "radius": _POSITIVE,
-        "stiffness": _POSITIVE,
-        "friction": _NONNEGATIVE,
         "table_height": _NUMBER,
         "start": _vec(2),
         "heading_deg": _NUMBER,
         "path": "list",
         "points": "list",
     },
+    "box": {**_COMMON, "size": "list of 3 positive numbers"},
+    "sphere": {**_COMMON, "radius": _POSITIVE},
+    "cylinder": {**_COMMON, "radius": _POSITIVE, "length": _POSITIVE},
+    "mesh": {**_COMMON, "path": _STR, "scale": _POSITIVE, "resolution": _POSITIVE},
 }
+#: Fields an object type cannot do without.
+REQUIRED = {"box": ("size",), "sphere": ("radius",), "cylinder": ("radius", "length"), "mesh": ("path",)}
+EVENT = {"at_s": _NONNEGATIVE, "object": _INT, "translate": _vec(3), "rotate_deg": _vec(3)}
 
 
 def _check(value: Located, kind: str, field_name: str) -> Any:
@@ -100,7 +112,9 @@ def _check(value: Located, kind: str, field_name: str) -> Any:
         n = int(kind.split()[2])
         if not isinstance(v, list) or len(v) != n:
             raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
-        return [_check(x, _NUMBER, f"{field_name}[{i}]") for i, x in enumerate(v)]
+        # "list of 3 numbers" → number, "list of 3 positive numbers" → positive number
+        item_kind = " ".join(kind.split()[3:])[:-1]
+        return [_check(x, item_kind, f"{field_name}[{i}]") for i, x in enumerate(v)]
     raise AssertionError(kind)
 
 
@@ -130,11 +144,15 @@ class Scene:
     sensor: SensorParams = field(default_factory=SensorParams)
     mount: MountSpec = field(default_factory=MountSpec)
     objects: list = field(default_factory=list)
+    events: list = field(default_factory=list)
     data: dict = field(default_factory=dict)
 
     def build_world(self, rng: np.random.Generator) -> World:
-        """A fresh world (sensor characteristics drawn from ``rng``)."""
-        return World(self.objects, SensorModel(self.sensor, rng), self.mount.build())
+        """A fresh world (sensor characteristics drawn from ``rng``) with its own event schedule
+        (``World.update`` applies it to the world's list of objects, not to the scene's)."""
+        world = World(self.objects, SensorModel(self.sensor, rng), self.mount.build())
+        world.events = EventSchedule(self.events)
+        return world
 
     @property
     def mount_pose(self) -> np.ndarray:
@@ -147,7 +165,7 @@ class Scene:
         return next((o for o in self.objects if isinstance(o, Cable)), None)
 
 
-def _build_object(item: Located, index: int) -> Any:
+def _build_object(item: Located, index: int, scene_file: str = "") -> Any:
     where_ = f"objects.{index}."
     if not isinstance(item.value, dict) or "type" not in item.value:
         raise item.error(f"objects.{index}: an object needs a 'type' ({', '.join(OBJECTS)})")
@@ -157,11 +175,24 @@ def _build_object(item: Located, index: int) -> Any:
 
         hint = get_close_matches(kind, list(OBJECTS), n=1)
         raise item.value["type"].error(f"{where_}type: unknown object type {kind!r}"
-                                       + (f" (did you mean {hint[0]!r}?)" if hint else ""))
+                                       + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                                       + f"; valid: {', '.join(OBJECTS)}")
     f = _fields(item, OBJECTS[kind], where_)
     f.pop("type")
+    for name in REQUIRED.get(kind, ()):
+        if name not in f:
+            raise item.error(f"{where_}{name}: a {kind} needs '{name}'")
+    f["pose"] = object_pose(f.pop("position", (0.0, 0.0, 0.0)), f.pop("rpy_deg", (0.0, 0.0, 0.0)))
     if kind == "table":
         return Table(**f)
+    if kind == "box":
+        return Box(**{**f, "size": tuple(f["size"])})
+    if kind == "sphere":
+        return Sphere(**f)
+    if kind == "cylinder":
+        return Cylinder(**f)
+    if kind == "mesh":
+        return _build_mesh(item, f, where_, scene_file)
     if "points" in f:
         pts = np.array([_check(p, _vec(2), f"{where_}points[{i}]") for i, p in enumerate(f.pop("points"))])
         f.pop("path", None)
@@ -185,6 +216,42 @@ def _build_object(item: Located, index: int) -> Any:
     return Cable(path=pts, **f)
 
 
+def _build_mesh(item: Located, f: dict, where_: str, scene_file: str):
+    """A mesh object; its file is relative to the scene file's directory. Imports trimesh."""
+    from tactile_bt.sim.mesh_object import MeshError, MeshObject
+
+    located = item.value["path"]
+    path = Path(f.pop("path")).expanduser()
+    if not path.is_absolute():
+        path = Path(scene_file).resolve().parent / path
+    if not path.is_file():
+        raise located.error(f"{where_}path: mesh file not found: {path}")
+    try:
+        return MeshObject(path=str(path), **f)
+    except MeshError as exc:
+        # a grid too large is the resolution's fault (or the scale's); anything else the file's
+        culprit = "resolution" if "grid is too large" in str(exc) and "resolution" in item.value else "path"
+        raise item.value[culprit].error(f"{where_}{culprit}: {exc}") from None
+
+
+def _build_event(item: Located, index: int, n_objects: int) -> ObjectEvent:
+    where_ = f"events.{index}."
+    if not isinstance(item.value, dict):
+        raise item.error(f"events.{index}: expected a mapping {{at_s: s, object: index, translate: [x, y, z], "
+                         f"rotate_deg: [rx, ry, rz]}}")
+    f = _fields(item, EVENT, where_)
+    for name in ("at_s", "object"):
+        if name not in f:
+            raise item.error(f"{where_}{name}: an event needs '{name}'")
+    if not 0 <= f["object"] < n_objects:
+        raise item.value["object"].error(f"{where_}object: no object {f['object']} in this scene "
+                                         f"(valid: 0 to {n_objects - 1})")
+    if "translate" not in f and "rotate_deg" not in f:
+        raise item.error(f"{where_}: an event needs 'translate' or 'rotate_deg'")
+    return ObjectEvent(at_s=f["at_s"], object=f["object"], translate=tuple(f.get("translate", (0.0, 0.0, 0.0))),
+                       rotate_deg=tuple(f.get("rotate_deg", (0.0, 0.0, 0.0))))
+
+
 def build_scene(root: Located) -> Scene:
     """Validate a located scene tree and build the :class:`Scene`."""
     if not isinstance(root.value, dict):
@@ -205,7 +272,8 @@ def build_scene(root: Located) -> Scene:
         except ValueError as exc:
             where_ = section.value.get("type", section)
             raise where_.error(str(exc)) from None
-    scene.objects = [_build_object(item, i) for i, item in enumerate(top.get("objects", []))]
+    scene.objects = [_build_object(item, i, root.file) for i, item in enumerate(top.get("objects", []))]
+    scene.events = [_build_event(item, i, len(scene.objects)) for i, item in enumerate(top.get("events", []))]
     return scene
 
 

@@ -48,3 +48,19 @@ class World:
     def move(self, twist_g: np.ndarray, dt: float) -> None:
         """Move the pad by the base-frame twist for ``dt`` seconds."""
         self.mount.move(twist_g, dt)
+
+    def update(self, t: float) -> list:
+        """Apply the scene events due at mission time ``t`` (s), each once.
+
+        An event replaces the object in ``self.objects`` by a displaced copy (the scene's own
+        objects stay where the file puts them) and the sensor model's cached broad phase is
+        dropped. The mission loop calls this once per cycle, before sensing. Returns the events
+        applied (``tactile_bt.sim.events.ObjectEvent``), usually none.
+        """
+        schedule = getattr(self, "events", None)
+        if not schedule:
+            return []
+        fired = schedule.apply_due(t, self.objects)
+        if fired:
+            self.sensor.invalidate()
+        return fired
