@@ -32,10 +32,10 @@ SMOOTHING_SAMPLES: int = 10
 
 # --- Servo leaves (gains per feature component; tuned on the simulator) -----------------------
 #: Force (pressure) hold: vz [m/s] per Pa of pressure error, integral per Pa·s, derivative per Pa/s.
-FORCE_KP: float = 2.0e-5
-FORCE_KI: float = 4.0e-5
+FORCE_KP: float = 6.0e-5
+FORCE_KI: float = 6.0e-5
 FORCE_KD: float = 0.0
-FORCE_LIMIT_MPS: float = 0.02
+FORCE_LIMIT_MPS: float = 0.05
 #: Contact position (COP) by sliding: vx, vy [m/s] per m of COP error.
 CENTRE_KP: float = 3.0
 CENTRE_KI: float = 0.5

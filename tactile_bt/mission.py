@@ -297,7 +297,8 @@ def run_mission(
     try:
         for k in range(n_cycles):
             t = k * dt
-            # sense → perceive → tick → controller → Ad(T_gs) → robot
+            # scene events → sense → perceive → tick → controller → Ad(T_gs) → robot
+            world.update(t)
             pose = world.pose
             raw = world.sense()
             if link is not None:  # through the device emulator, a pty and the serial driver
