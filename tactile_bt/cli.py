@@ -113,6 +113,18 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_paper(args) -> int:
+    from tactile_bt.paper import format_tables, plot_roll, run_paper, run_roll, write_paper
+
+    out = Path(args.out)
+    results = run_paper(trials=args.trials, duration=args.duration, workers=args.workers)
+    files = write_paper(results, out)
+    files.append(plot_roll(run_roll(), out))
+    print(format_tables(results))
+    print("written: " + ", ".join(str(f) for f in files))
+    return 0
+
+
 def _cmd_accuracy(args) -> int:
     from tactile_bt.synthetic import cop_accuracy, orientation_comparison
 
@@ -194,6 +206,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.set_defaults(func=_cmd_bench)
+
+    paper = sub.add_parser("paper", help="reproduce the paper's Tables I-III and Figs. 8-11 (20 trials each)")
+    paper.add_argument("--trials", type=int, default=20)
+    paper.add_argument("--duration", type=float, default=22.0, help="mission time per trial (s)")
+    paper.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    paper.add_argument("--out", default="out/paper")
+    paper.set_defaults(func=_cmd_paper)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
     acc.add_argument("--trials", type=int, default=20)

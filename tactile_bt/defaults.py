@@ -36,15 +36,17 @@ FORCE_KP: float = 6.0e-5
 FORCE_KI: float = 6.0e-5
 FORCE_KD: float = 0.0
 FORCE_LIMIT_MPS: float = 0.05
-#: Contact position (COP) by sliding: vx, vy [m/s] per m of COP error.
-CENTRE_KP: float = 3.0
-CENTRE_KI: float = 0.5
+#: Contact position (COP) by sliding: vx, vy [m/s] per m of COP error. Sliding integrates the
+#: command into the COP, so proportional action alone settles without offset; an integral term
+#: would only add a slow overshoot tail (and, under a guidance twist, cancel it).
+CENTRE_KP: float = 4.0
+CENTRE_KI: float = 0.0
 CENTRE_KD: float = 0.0
 CENTRE_LIMIT_MPS: float = 0.03
 #: COP by rolling: the position command of the rolling rows (m/s per m), turned into rad/s by
 #: dividing by ROLL_RADIUS_M (the inverse task Jacobian's rolling rows).
 ROLL_KP: float = 1.0
-ROLL_KI: float = 0.2
+ROLL_KI: float = 0.0
 ROLL_KD: float = 0.0
 ROLL_LIMIT_MPS: float = 0.02
 ROLL_RADIUS_M: float = 0.05
@@ -67,8 +69,8 @@ TWIST_ANGULAR_LIMIT_RPS: float = 1.5
 #: Convergence bands for the response time, per logged error (Pa, px, px, rad).
 METRIC_BANDS = {
     "pressure_pa": 0.1 * TARGET_PRESSURE_PA,
-    "cop_x_px": 0.5,
-    "cop_y_px": 0.5,
+    "cop_x_px": 0.25,
+    "cop_y_px": 0.25,
     "orientation_rad": 0.0524,  # 3 degrees
 }
 #: Time the error must stay inside its band to count as settled (s).
