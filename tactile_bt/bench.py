@@ -152,6 +152,21 @@ def bench_mission(duration: float = 20.0, overrides: list[str] | None = None) ->
     }
 
 
+def bench_mesh_scene() -> dict:
+    """Loading the mesh scene: the signed-distance grid is built once per process."""
+    from tactile_bt.sim import mesh_object
+    from tactile_bt.sim.scene import load_scene
+
+    started = time.perf_counter()
+    scene = load_scene(ROOT / "sim" / "object.yaml")
+    first = time.perf_counter() - started
+    grid = next(o for o in scene.objects if isinstance(o, mesh_object.MeshObject)).grid
+    started = time.perf_counter()
+    load_scene(ROOT / "sim" / "object.yaml")
+    return {"first_load_s": first, "sdf_grid_build_s": grid.build_time_s,
+            "cached_load_s": time.perf_counter() - started, "grid_points": int(grid.values.size)}
+
+
 def run_bench(quick: bool = False) -> dict:
     """All speed figures; ``quick`` uses fewer repetitions and a shorter mission."""
     repeats = 3 if quick else 7
@@ -159,6 +174,7 @@ def run_bench(quick: bool = False) -> dict:
         "features": bench_features(repeats, 100 if quick else 300),
         "control_cycle": bench_control_cycle(repeats, 200 if quick else 1000),
         "cable_mission": bench_mission(5.0 if quick else 20.0),
+        "mesh_scene": bench_mesh_scene(),
     }
 
 
@@ -175,4 +191,8 @@ def format_bench(figures: dict) -> str:
         lines.append(f"cable mission ({m['mount']:9s}) {m['real_time_factor']:5.1f}x real time at 250 Hz "
                      f"(target ≥ {m['target_real_time_factor']:.0f}x)")
         lines.append("  per cycle: " + ", ".join(f"{k} {v:.0f} µs" for k, v in m["per_cycle_us"].items()))
+    if "mesh_scene" in figures:
+        g = figures["mesh_scene"]
+        lines.append(f"mesh scene load     {g['first_load_s']:.2f} s first ({g['sdf_grid_build_s']:.2f} s SDF grid of "
+                     f"{g['grid_points']} points), {g['cached_load_s'] * 1e3:.0f} ms cached")
     return "\n".join(lines)

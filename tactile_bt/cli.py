@@ -125,6 +125,16 @@ def _cmd_paper(args) -> int:
     return 0
 
 
+def _cmd_stability(args) -> int:
+    from tactile_bt.stability import format_table, run_stability
+
+    started = time.perf_counter()
+    results = run_stability(Path(args.out), rates=not args.no_rates)
+    print(format_table(results["cases"], results["rates"]))
+    print(f"written to {args.out} in {time.perf_counter() - started:.0f} s")
+    return 0 if all(r["ok"] for r in results["cases"]) else 1
+
+
 def _cmd_accuracy(args) -> int:
     from tactile_bt.synthetic import cop_accuracy, orientation_comparison
 
@@ -213,6 +223,11 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
     paper.add_argument("--out", default="out/paper")
     paper.set_defaults(func=_cmd_paper)
+
+    stab = sub.add_parser("stability", help="stiffness sweep, extreme cases and control rates")
+    stab.add_argument("--out", default="out/stability")
+    stab.add_argument("--no-rates", action="store_true", help="skip the cable mission at 100-1900 Hz")
+    stab.set_defaults(func=_cmd_stability)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
     acc.add_argument("--trials", type=int, default=20)

@@ -500,9 +500,7 @@ def test_mission_timeout_ignores_wall_time(monkeypatch):
     """Ticking fast with a fast mission clock times out; a frozen mission clock never does, even
     when the wall clock jumps by an hour between ticks."""
     h = LeafHarness(MissionTimeout(_Counter(), duration_s=5.0), dt=1.0)
-    wall = time.perf_counter()
-    statuses = [h.tick() for _ in range(6)]
-    assert time.perf_counter() - wall < 1.0  # far less than the 5 s timeout of wall time
+    statuses = [h.tick() for _ in range(6)]  # microseconds of wall time, 5 s of mission time
     assert statuses == [Status.RUNNING] * 5 + [Status.FAILURE]
 
     py_trees.blackboard.Blackboard.clear()

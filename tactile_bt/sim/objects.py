@@ -137,6 +137,17 @@ class SimObject:
         """Depth (m, ≥ 0) of each ``(N, 3)`` world point inside the object."""
         return np.maximum(-self.sdf(points), 0.0)
 
+    def depth(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """Indentation (m, ≥ 0) of pad points pressed along ``normal`` (world unit vector).
+
+        How far each point has been pushed into the object along the pressing direction: the
+        distance back along ``-normal`` to where that ray enters the object. It keeps growing as
+        the pad presses on, past the middle of a thin object, so a soft pen or cable cannot be
+        tunnelled through (the nearest-surface depth ``-sdf`` would shrink there). This default
+        is ``-sdf``, right for thick objects; thin shapes override it with the ray depth.
+        """
+        return np.maximum(-self.sdf(points), 0.0)
+
     def with_pose(self, pose: np.ndarray) -> "SimObject":
         """A copy of the object at another world pose (shapes and grids are shared)."""
         other = copy.copy(self)
@@ -289,6 +300,19 @@ class Cable(SimObject):
         lateral = self.lateral_distance(points[:, :2])
         dz = points[:, 2] - (self.table_height + self.radius)
         return np.sqrt(lateral * lateral + dz * dz) - self.radius
+
+    def depth(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """Ray depth of a pad pressing from above (``normal`` pointing down): below the cable's
+        top at the point's lateral offset, along the normal; −sdf for other directions."""
+        n = self.pose[:3, :3].T @ normal
+        if n[2] > -0.5:  # not pressing from above: nearest-surface depth
+            return super().depth(points, normal)
+        local = self.to_local(points)
+        lateral = self.lateral_distance(local[:, :2])
+        half = np.sqrt(np.maximum(self.radius * self.radius - lateral * lateral, 0.0))
+        top = self.table_height + self.radius + half
+        d = (top - local[:, 2]) / -n[2]
+        return np.where(half > 0.0, np.maximum(d, 0.0), 0.0)
 
     def centreline_world(self) -> np.ndarray:
         """``(N, 3)`` world points of the centreline (for views and metrics)."""

@@ -174,9 +174,10 @@ class SensorModel:
             self._broad_corners = corners
             self._broad_objects = objects
         samples = []
+        normal = R[:, 2]  # the pad presses along +z of the sensor frame
         for obj, near, local, scale in self._broad:
             points = local @ R.T + t
-            depth = -obj.sdf(points)
+            depth = obj.depth(points, normal)
             if depth.max() > 0.0:
                 samples.append((near, points, depth, scale))
         self._last_key = T_gs.copy()
@@ -197,7 +198,7 @@ class SensorModel:
         deepest = 0.0
         for near, _, depth, scale in samples:
             deepest = max(deepest, float(depth.max()))
-            tactel = np.maximum(depth, 0.0).reshape(near.size, -1).sum(axis=1) * scale
+            tactel = depth.reshape(near.size, -1).sum(axis=1) * scale
             force[near] = np.maximum(force[near], tactel)
         return self.spread(force.reshape(p.rows, p.cols)), deepest
 

@@ -16,6 +16,23 @@ from tactile_bt.sim.objects import SimObject
 __all__ = ["Box", "Sphere", "Cylinder"]
 
 
+def _ray_depth(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Depth from the interval [lo, hi] of ray parameters (distance back along −normal) where the
+    ray lies inside a convex shape: ``hi`` when the ray meets the shape behind the point."""
+    return np.where((hi > 0.0) & (lo <= hi), hi, 0.0)
+
+
+def _slab(p: np.ndarray, n: np.ndarray, half) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters s of ``p − s n`` with ``|coordinate| ≤ half`` along one axis."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (p - half) / n
+        b = (p + half) / n
+    if n == 0.0:
+        inside = np.abs(p) <= half
+        return np.where(inside, -np.inf, np.inf), np.where(inside, np.inf, -np.inf)
+    return np.minimum(a, b), np.maximum(a, b)
+
+
 def _positive(name: str, value: float) -> float:
     value = float(value)
     if not np.isfinite(value) or value <= 0:
@@ -48,6 +65,14 @@ class Box(SimObject):
         outside = np.maximum(q, 0.0)
         return np.sqrt(np.einsum("ij,ij->i", outside, outside)) + np.minimum(q.max(axis=1), 0.0)
 
+    def depth(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        p, n = self.to_local(points), self.pose[:3, :3].T @ normal
+        lo, hi = _slab(p[:, 0], n[0], self._half[0])
+        for i in (1, 2):
+            a, b = _slab(p[:, i], n[i], self._half[i])
+            lo, hi = np.maximum(lo, a), np.minimum(hi, b)
+        return _ray_depth(lo, hi)
+
 
 @dataclass(eq=False)
 class Sphere(SimObject):
@@ -65,6 +90,13 @@ class Sphere(SimObject):
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         return np.sqrt(np.einsum("ij,ij->i", points, points)) - self.radius
+
+    def depth(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        p, n = self.to_local(points), self.pose[:3, :3].T @ normal
+        b = p @ n
+        disc = b * b - np.einsum("ij,ij->i", p, p) + self.radius**2
+        root = np.sqrt(np.maximum(disc, 0.0))
+        return np.where(disc > 0.0, _ray_depth(b - root, b + root), 0.0)
 
 
 @dataclass(eq=False)
@@ -90,3 +122,18 @@ class Cylinder(SimObject):
         axial = np.abs(points[:, 0]) - self.length / 2
         outside = np.hypot(np.maximum(radial, 0.0), np.maximum(axial, 0.0))
         return outside + np.minimum(np.maximum(radial, axial), 0.0)
+
+    def depth(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        p, n = self.to_local(points), self.pose[:3, :3].T @ normal
+        lo, hi = _slab(p[:, 0], n[0], self.length / 2)
+        a = n[1] * n[1] + n[2] * n[2]
+        if a > 1e-12:  # the ray crosses the round surface: |(p − s n)_yz| ≤ r
+            b = (p[:, 1] * n[1] + p[:, 2] * n[2]) / a
+            disc = b * b - (p[:, 1] ** 2 + p[:, 2] ** 2 - self.radius**2) / a
+            root = np.sqrt(np.maximum(disc, 0.0))
+            lo = np.where(disc > 0.0, np.maximum(lo, b - root), np.inf)
+            hi = np.where(disc > 0.0, np.minimum(hi, b + root), -np.inf)
+        else:  # along the axis
+            inside = p[:, 1] ** 2 + p[:, 2] ** 2 <= self.radius**2
+            lo, hi = np.where(inside, lo, np.inf), np.where(inside, hi, -np.inf)
+        return _ray_depth(lo, hi)
