@@ -55,6 +55,7 @@ class MissionLog:
         self.twist = np.zeros((n, 6))
         self.position = np.zeros((n, 3))
         self.rotation = np.zeros((n, 3, 3))
+        self.joints: np.ndarray | None = None  # (n, 7) rad, when the pad is on the arm
 
     def record(self, k: int, t: float, loop: "ControlLoop", twist_s: np.ndarray, pose: np.ndarray,
                penetration: float = float("nan")) -> None:
@@ -84,6 +85,8 @@ class MissionLog:
         out["twist_s"] = self.twist[:n].copy()
         out["position_m"] = self.position[:n].copy()
         out["rotation"] = self.rotation[:n].copy()
+        if self.joints is not None:
+            out["joints_rad"] = self.joints[:n].copy()
         return out
 
 
@@ -278,6 +281,9 @@ def run_mission(
     contacts = loop.contacts
 
     log = MissionLog(n_cycles)
+    joints = getattr(world.mount, "joint_angles", None)
+    if joints is not None:
+        log.joints = np.zeros((n_cycles, len(joints())))
     status = "completed"
     reason = ""
     progress_every = max(1, int(scene.rate_hz / 20))
@@ -308,6 +314,8 @@ def run_mission(
             twist_s = loop.cycle(raw, pose, t)
             world.move(body_to_spatial(pose, twist_s), dt)
             log.record(k, t, loop, twist_s, pose, world.last_penetration)
+            if joints is not None:
+                log.joints[k] = joints()
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
             root_status = tree.root.status

@@ -98,10 +98,9 @@ class ArmMount:
         """Actual ``T_gs`` (deflected by contact forces)."""
         return self.arm.pose
 
-    @property
-    def q(self) -> np.ndarray:
-        """Actual joint angles (rad)."""
-        return self.arm.q
+    def joint_angles(self) -> np.ndarray:
+        """Actual joint angles (rad), logged by the mission as ``joints_rad``."""
+        return self.arm.q.copy()
 
     def attach(self, contact) -> None:
         """Let ``contact(T_gs) -> (wrench_g, K_x)`` deflect the arm."""
