@@ -188,6 +188,7 @@ def run_rates(rates=(100, 250, 500, 1000, 1900), duration: float = 20.0) -> list
 
 def plot_rates(rows: list[dict], path: Path) -> Path:
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -204,6 +205,8 @@ def plot_rates(rows: list[dict], path: Path) -> Path:
                         textcoords="offset points", xytext=(4, 4), fontsize=8)
         ax.set_xlabel("wall-clock run time of the 20 s mission (s)")
         ax.set_xscale("log")
+        ax.set_xticks(wall, [f"{w:.1f}" for w in wall])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     a.set_ylabel("path error (mm)")
