@@ -26,10 +26,32 @@ def _scene_meshes(scene, pv, extent: np.ndarray):
             size = hi[:2] - lo[:2]
             meshes.append(("table", pv.Plane(center=centre, i_size=size[0], j_size=size[1]), "#d8cfc4", 0.5))
         elif isinstance(obj, Cable):
-            pts = np.column_stack((obj.path, np.full(len(obj.path), obj.table_height + obj.radius)))
+            pts = obj.centreline_world()
             tube = pv.lines_from_points(pts[::2] if len(pts) > 4 else pts).tube(radius=obj.radius, n_sides=16)
             meshes.append(("cable", tube, "#4a78b5", 0.35))
+        else:
+            mesh = _primitive(obj, pv)
+            if mesh is not None:
+                meshes.append((f"object {len(meshes)}", mesh.transform(obj.pose, inplace=False), "#4a78b5", 0.3))
     return meshes
+
+
+def _primitive(obj, pv):
+    """The object's surface in its own frame, or None for types without one."""
+    from tactile_bt.sim.mesh_object import MeshObject
+    from tactile_bt.sim.shapes import Box, Cylinder, Sphere
+
+    if isinstance(obj, Box):
+        return pv.Box(bounds=(-obj.size[0] / 2, obj.size[0] / 2, -obj.size[1] / 2, obj.size[1] / 2,
+                              -obj.size[2] / 2, obj.size[2] / 2))
+    if isinstance(obj, Sphere):
+        return pv.Sphere(radius=obj.radius, theta_resolution=48, phi_resolution=48)
+    if isinstance(obj, Cylinder):
+        return pv.Cylinder(radius=obj.radius, height=obj.length, direction=(1, 0, 0), resolution=48)
+    if isinstance(obj, MeshObject):
+        faces = np.column_stack((np.full(len(obj.grid.faces), 3), obj.grid.faces)).ravel()
+        return pv.PolyData(np.asarray(obj.grid.vertices, float), faces)
+    return None
 
 
 def render_mission(out_dir: str | Path, png: str | Path | None = None, window_size=(1200, 900)) -> Path | None:
