@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates every figure and number quoted in README.md (after `pip install .`).
+# About 15 minutes on 2 cores, most of it the 100 runs of `tactile-bt paper`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p out docs/figures
@@ -8,6 +9,10 @@ tactile-bt view out/cable --png docs/figures/cable_render.png
 cp out/cable/errors.png docs/figures/cable_errors.png
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --orientation hough --out out/cable_hough | tee out/cable_hough.txt
 tactile-bt accuracy --png docs/figures/orientation_accuracy.png | tee out/accuracy.txt
+tactile-bt stability --out out/stability | tee out/stability.txt
+cp out/stability/error_vs_runtime.png docs/figures/error_vs_runtime.png
+tactile-bt paper --out out/paper | tee out/paper.txt
+for f in fig8_force fig9_position fig10_hybrid fig11_roll; do cp "out/paper/$f.png" "docs/figures/$f.png"; done
 tactile-bt bench | tee out/bench.txt
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --record out/cable.tbr --out out/cable_recorded > /dev/null
 tactile-bt replay out/cable.tbr --tree trees/cable_follow.yaml | tee out/replay.txt
