@@ -111,7 +111,8 @@ class PID:
     ``u = kp·e + ki·∫e dt + kd·de/dt``. The derivative is taken per second (``(e(t) − e(t−1)) / dt``)
     so gains do not depend on the control rate. Anti-windup: the integral is clamped so that
     ``|ki·∫e| ≤ output_limit``, and it does not grow while the output saturates in the direction of
-    the error. NaN error components leave their state untouched and give ``u = 0``.
+    the error or while the proportional and derivative terms alone saturate it (conditional
+    integration: after a large step the integral does not wind up and overshoot). NaN error components leave their state untouched and give ``u = 0``.
 
     The loops run on Python floats: with one to four components that is several times faster
     than numpy's per-call overhead, and this runs every control cycle.
@@ -161,8 +162,11 @@ class PID:
             ki, lim = self.ki[i], self.output_limit[i]
             integral = self._integral[i] + e * dt
             v = p_and_d + ki * integral
-            if (v > lim and e > 0) or (v < -lim and e < 0):
-                integral = self._integral[i]  # anti-windup: no integration into saturation
+            if abs(p_and_d) >= lim or (v > lim and e > 0) or (v < -lim and e < 0):
+                # Anti-windup: no integration while the proportional and derivative terms alone
+                # saturate the output (a large error: the integral would only overshoot later),
+                # nor into saturation.
+                integral = self._integral[i]
             imax = self._imax[i]
             integral = min(max(integral, -imax), imax)
             self._integral[i] = integral

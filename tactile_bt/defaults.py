@@ -32,8 +32,8 @@ SMOOTHING_SAMPLES: int = 10
 
 # --- Servo leaves (gains per feature component; tuned on the simulator) -----------------------
 #: Force (pressure) hold: vz [m/s] per Pa of pressure error, integral per Pa·s, derivative per Pa/s.
-FORCE_KP: float = 6.0e-5
-FORCE_KI: float = 6.0e-5
+FORCE_KP: float = 1.0e-4
+FORCE_KI: float = 1.0e-4
 FORCE_KD: float = 0.0
 FORCE_LIMIT_MPS: float = 0.05
 #: Contact position (COP) by sliding: vx, vy [m/s] per m of COP error. Sliding integrates the
