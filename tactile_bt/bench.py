@@ -111,18 +111,32 @@ def bench_control_cycle(repeats: int = 7, number: int = 500) -> dict:
     }
 
 
-def bench_mission(duration: float = 20.0, overrides: list[str] | None = None) -> dict:
-    """Closed-loop cable mission; the time split between simulator and control loop."""
+#: The force gains of trees/cable_follow.yaml suit the compliant arm; on the ideal mount the
+#: contact is 10-100x stiffer, and these are the gains that suit it.
+IDEAL_FORCE_GAINS = "{target_pa: 2000, kp: 5.0e-6, ki: 5.0e-6}"
+
+
+def _cable_tree(ideal: bool):
     from tactile_bt.loader import load_tree
+
+    if not ideal:
+        return load_tree(TREE)
+    text = TREE.read_text().replace("force_hold: {target_pa: 2000}", f"force_hold: {IDEAL_FORCE_GAINS}")
+    return load_tree(TREE, text=text)
+
+
+def bench_mission(duration: float = 20.0, ideal: bool = False) -> dict:
+    """Closed-loop cable mission on the arm (or the ideal mount); where the time goes."""
     from tactile_bt.mission import ControlLoop, run_mission
     from tactile_bt.sim.scene import load_scene
     from tactile_bt.spatial import body_to_spatial
 
-    result = run_mission(TREE, SCENE, duration=duration, seed=0, overrides=overrides)
+    overrides = IDEAL if ideal else None
+    result = run_mission(_cable_tree(ideal), SCENE, duration=duration, seed=0, overrides=overrides)
     # Where the time goes: the same loop, timed per stage.
     scene = load_scene(SCENE, overrides)
     world = scene.build_world(np.random.default_rng(0))
-    loop = ControlLoop(load_tree(TREE), world.calibration, 1.0 / scene.rate_hz, profile=True)
+    loop = ControlLoop(_cable_tree(ideal), world.calibration, 1.0 / scene.rate_hz, profile=True)
     stages = np.zeros(3)
     n = int(min(duration, 10.0) * scene.rate_hz)
     for k in range(n):
@@ -138,6 +152,7 @@ def bench_mission(duration: float = 20.0, overrides: list[str] | None = None) ->
     perception, tick = (np.array(loop.stage_times) / loop.stage_cycles * 1e6).tolist()
     return {
         "mount": scene.mount.type,
+        "status": result.report["status"],
         "real_time_factor": result.report["real_time_factor"],
         "sim_time_s": result.report["sim_time_s"],
         "wall_time_s": result.report["wall_time_s"],
@@ -147,7 +162,7 @@ def bench_mission(duration: float = 20.0, overrides: list[str] | None = None) ->
             "control_loop": stages[1],
             "of_which_perception": perception,
             "of_which_tree_tick_and_controller": tick,
-            "arm_move": stages[2],
+            "mount_move": stages[2],
         },
     }
 
@@ -174,6 +189,7 @@ def run_bench(quick: bool = False) -> dict:
         "features": bench_features(repeats, 100 if quick else 300),
         "control_cycle": bench_control_cycle(repeats, 200 if quick else 1000),
         "cable_mission": bench_mission(5.0 if quick else 20.0),
+        "cable_mission_ideal_mount": bench_mission(5.0 if quick else 20.0, ideal=True),
         "mesh_scene": bench_mesh_scene(),
     }
 
@@ -186,7 +202,7 @@ def format_bench(figures: dict) -> str:
         f"                    Hough orientation {f['extract_hough_us']:.1f} µs",
         f"control cycle       {c['control_cycle_us']:7.1f} µs  = {c['share_of_frame_period']:.0%} of the 1.9 kHz frame period",
     ]
-    for key in ("cable_mission",):
+    for key in ("cable_mission", "cable_mission_ideal_mount"):
         m = figures[key]
         lines.append(f"cable mission ({m['mount']:9s}) {m['real_time_factor']:5.1f}x real time at 250 Hz "
                      f"(target ≥ {m['target_real_time_factor']:.0f}x)")
