@@ -153,3 +153,21 @@ def test_a_failed_mission_says_which_node_failed_and_why():
     assert result.report["status"] == "failure"
     assert result.report["reason"].startswith("mission_timeout: timed out after 0.5 s")
     assert result.report["sim_time_s"] < 1.5
+
+
+def test_roll_brings_a_displaced_contact_back_by_rotating_while_holding_the_force():
+    """Paper Sec. V-B / Fig. 11: the ball is pushed at 4 s; the pad rolls back the other way."""
+    from scipy.spatial.transform import Rotation
+
+    result = run_mission(ROOT / "trees" / "roll.yaml", ROOT / "sim" / "roll_ball.yaml", duration=6.0, seed=0)
+    log = result.log
+    t = log["t"]
+    R0 = log["rotation"][0]
+    roll_x = Rotation.from_matrix(np.einsum("ji,njk->nik", R0, log["rotation"])).as_rotvec(degrees=True)[:, 0]
+    before, after = roll_x[np.searchsorted(t, 3.9)], roll_x[-1]
+    assert before < -2.0  # the initial offset was removed by rolling about x ...
+    assert after - before > 1.5  # ... and the displacement by rolling back the other way
+    late = t > 5.0
+    assert np.max(np.abs(log["error_cop_y_px"][late])) < 0.25  # the COP is back at the centre
+    held = t > 1.0
+    assert np.max(np.abs(log["error_pressure_pa"][held])) < 0.25 * 2000.0  # force stays controlled
