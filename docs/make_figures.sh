@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates every figure and number quoted in README.md (after `pip install .`).
-# About 15 minutes on 2 cores, most of it the 100 runs of `tactile-bt paper`.
+# About 20 minutes on 2 cores, most of it the 100 runs of `tactile-bt paper` and the scans.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p out docs/figures
@@ -13,6 +13,11 @@ tactile-bt stability --out out/stability | tee out/stability.txt
 cp out/stability/error_vs_runtime.png docs/figures/error_vs_runtime.png
 tactile-bt paper --out out/paper | tee out/paper.txt
 for f in fig8_force fig9_position fig10_hybrid fig11_roll; do cp "out/paper/$f.png" "docs/figures/$f.png"; done
+for sc in box cylinder ellipsoid; do
+  tactile-bt run trees/surface_scan_stripes.yaml --scene "sim/scan_$sc.yaml" --out "out/scan_$sc" | tee "out/scan_$sc.txt"
+  tactile-bt view "out/scan_$sc" --png "docs/figures/scan_$sc.png"
+done
+tactile-bt run trees/surface_scan.yaml --scene sim/object.yaml --out out/scan_object | tee out/scan_object.txt
 tactile-bt bench | tee out/bench.txt
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --record out/cable.tbr --out out/cable_recorded > /dev/null
 tactile-bt replay out/cable.tbr --tree trees/cable_follow.yaml | tee out/replay.txt

@@ -182,6 +182,12 @@ def bench_mesh_scene() -> dict:
             "cached_load_s": time.perf_counter() - started, "grid_points": int(grid.values.size)}
 
 
+def _bench_reconstruction(quick: bool) -> dict:
+    from tactile_bt.reconstruct import bench_reconstruction
+
+    return bench_reconstruction(n=20000, repeats=1 if quick else 3)
+
+
 def run_bench(quick: bool = False) -> dict:
     """All speed figures; ``quick`` uses fewer repetitions and a shorter mission."""
     repeats = 3 if quick else 7
@@ -191,6 +197,7 @@ def run_bench(quick: bool = False) -> dict:
         "cable_mission": bench_mission(5.0 if quick else 20.0),
         "cable_mission_ideal_mount": bench_mission(5.0 if quick else 20.0, ideal=True),
         "mesh_scene": bench_mesh_scene(),
+        "reconstruction": _bench_reconstruction(quick),
     }
 
 
@@ -207,6 +214,10 @@ def format_bench(figures: dict) -> str:
         lines.append(f"cable mission ({m['mount']:9s}) {m['real_time_factor']:5.1f}x real time at 250 Hz "
                      f"(target ≥ {m['target_real_time_factor']:.0f}x)")
         lines.append("  per cycle: " + ", ".join(f"{k} {v:.0f} µs" for k, v in m["per_cycle_us"].items()))
+    if "reconstruction" in figures:
+        r = figures["reconstruction"]
+        times = ", ".join(f"{k[:-2]} {v:.2f} s" for k, v in r.items() if k.endswith("_s") and k != "target_s")
+        lines.append(f"reconstruction      20,000 contacts: {times} (target < {r.get('target_s', 2.0):g} s)")
     if "mesh_scene" in figures:
         g = figures["mesh_scene"]
         lines.append(f"mesh scene load     {g['first_load_s']:.2f} s first ({g['sdf_grid_build_s']:.2f} s SDF grid of "

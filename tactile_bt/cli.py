@@ -43,7 +43,7 @@ def _cmd_run(args) -> int:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
                              orientation_method=args.orientation, via_emulator=args.via_emulator,
-                             record=args.record)
+                             record=args.record, reconstruct=args.reconstruct)
     finally:
         progress.close()
     r = result.report
@@ -54,6 +54,10 @@ def _cmd_run(args) -> int:
         p = r["path_error_m"]
         print(f"  path error       mean {p['mean'] * 1e3:.2f} mm  max {p['max'] * 1e3:.2f} mm  "
               f"followed {p['followed_m'] * 1e3:.0f} of {p['cable_length_m'] * 1e3:.0f} mm")
+    rec = r.get("reconstruction")
+    if rec and rec.get("chamfer_m") is not None:
+        print(f"  reconstruction   {rec['method']}, {rec['points']} contacts: chamfer {rec['chamfer_m'] * 1e3:.2f} mm, "
+              f"Hausdorff {rec['hausdorff_m'] * 1e3:.2f} mm, coverage {rec['coverage']:.3f} of {rec['region']}")
     print(f"  outputs in {args.out}")
     return 0 if r["status"] in ("success", "completed") else 1
 
@@ -94,7 +98,7 @@ def _cmd_tree(args) -> int:
 def _cmd_view(args) -> int:
     from tactile_bt.view import render_mission
 
-    png = render_mission(args.dir, args.png)
+    png = render_mission(args.dir, args.png, color_by=args.color_by)
     if png is not None:
         print(f"rendered {png}")
     return 0
@@ -190,6 +194,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--via-emulator", action="store_true",
                      help="carry every frame through the device emulator, a pty and the serial driver")
     run.add_argument("--record", default=None, metavar="FILE", help="record frames and poses (chunked, crash-safe)")
+    run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull"),
+                     help="reconstruct a surface from the contacts (default: as the tree's record_contacts says)")
     run.add_argument("--out", required=True, help="output directory")
     run.set_defaults(func=_cmd_run)
 
@@ -210,6 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
     view = sub.add_parser("view", help="show a mission's contacts, path and scene in 3-D")
     view.add_argument("dir", help="output directory of 'tactile-bt run'")
     view.add_argument("--png", default=None, help="render off screen into this PNG instead of a window")
+    view.add_argument("--color-by", default=None, choices=("time", "pressure"), help="colour of the contacts (default: time for scans, pressure otherwise)")
     view.set_defaults(func=_cmd_view)
 
     bench = sub.add_parser("bench", help="speed figures, as ratios measured in one run")

@@ -19,7 +19,7 @@ from py_trees.common import Status
 from tactile_bt import defaults
 from tactile_bt.behaviours import NAMESPACE, TactileBehaviour
 from tactile_bt.behaviours.base import cycle_writer
-from tactile_bt.behaviours.record import ContactCloud
+from tactile_bt.behaviours.record import ContactCloud, RecordContacts
 from tactile_bt.control import ServoCommand
 from tactile_bt.features import extract
 from tactile_bt.filters import FeatureSmoother
@@ -104,11 +104,15 @@ class MissionResult:
         World points (m) and outward surface normals recorded by ``record_contacts``.
     contact_data : (N, 8) array
         The same with pressure (Pa) and mission time (s).
+    surface : trimesh.Trimesh or None
+        The surface reconstructed from the contacts (world frame, m), when the tree or the run
+        asked for one (``record_contacts: {reconstruct: ...}`` or ``run_mission(reconstruct=...)``).
     """
 
     report: dict
     log: dict
     contact_data: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
+    surface: object = None
 
     @property
     def contacts(self) -> np.ndarray:
@@ -121,7 +125,8 @@ class MissionResult:
         return plot_errors(self, path)
 
     def save(self, out: str | Path) -> None:
-        """Write report.json, log.npz, errors.png and contacts.ply into ``out``."""
+        """Write report.json, log.npz, errors.png and contacts.ply into ``out``; for a scan
+        also surface.ply and render.png."""
         from tactile_bt.report import write_outputs
 
         write_outputs(self, Path(out))
@@ -240,6 +245,8 @@ def run_mission(
     threshold: float = defaults.CONTACT_THRESHOLD_N,
     via_emulator: bool = False,
     record: str | Path | None = None,
+    reconstruct: str | None = None,
+    scan_region: dict | None = None,
 ) -> MissionResult:
     """Run a tree against a simulated scene.
 
@@ -268,8 +275,17 @@ def run_mission(
     record : path, optional
         Record every raw frame with its pose into this chunked recording (and the simulated
         pad's calibration next to it, ``<record>.calibration.npz``) for ``replay_mission``.
+    reconstruct : str, optional
+        Reconstruct the contact cloud into a surface with this method (``auto``, ``delaunay``,
+        ``surface``, ``hull``; ``none`` for no surface), overriding the tree's
+        ``record_contacts: {reconstruct: ...}``. See :mod:`tactile_bt.reconstruct`.
+    scan_region : dict, optional
+        The part of the scene's object the scan sets out to cover, for the accuracy figures
+        (:mod:`tactile_bt.scan_metrics`); defaults to the scene's ``scan_region``, else the
+        whole object.
     """
     tree, scene = _resolve(tree, scene, overrides)
+    scan = _scan_settings(tree, scene, reconstruct, scan_region)
     duration = float(scene.duration_s if duration is None else duration)
     seed = int(scene.seed if seed is None else seed)
     rng = np.random.default_rng(seed)
@@ -329,20 +345,34 @@ def run_mission(
     except BaseException as exc:
         status = "error"
         reason = f"{type(exc).__name__}: {exc}"
-        result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt)
+        result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan)
         if out is not None:
             result.save(out)
         raise
     finally:
         tree.interrupt()
         stack.close()
-    result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt)
+    result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan)
     if out is not None:
         result.save(out)
     return result
 
 
-def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt) -> MissionResult:
+def _scan_settings(tree, scene, reconstruct, scan_region) -> dict | None:
+    """Reconstruction method and scan region of a mission (checked before it runs), or None
+    when it reconstructs nothing: ``reconstruct`` or else the tree's ``record_contacts``."""
+    method = reconstruct
+    if method is None:
+        chosen = (b.reconstruct for b in tree.root.iterate() if isinstance(b, RecordContacts))
+        method = next((m for m in chosen if m != "none"), "none")
+    if method == "none":
+        return None
+    from tactile_bt.scan_metrics import scan_settings
+
+    return scan_settings(method, scene, scan_region)
+
+
+def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan=None) -> MissionResult:
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
     t = arrays["t"]
@@ -378,4 +408,14 @@ def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt) ->
             world = np.einsum("nij,nj->ni", R[:, :, :2], c) + arrays["position_m"][touching]
             cop_error = path_error(world[:, :2], cable)
             report["path_error_cop_m"] = {"mean": cop_error["mean"], "max": cop_error["max"]}
-    return MissionResult(report=report, log=arrays, contact_data=contacts.data.copy())
+    surface = None
+    if scan is not None and len(contacts):
+        from tactile_bt.scan_metrics import contact_continuity, evaluate_scan
+
+        try:
+            surface, figures = evaluate_scan(scene, contacts.data, scan["method"], scan["region"])
+        except Exception as exc:  # a failed reconstruction must not lose the mission's outputs
+            figures = {"method": scan["method"], "error": f"{type(exc).__name__}: {exc}"}
+        figures.update(contact_continuity(t, arrays["in_contact"]))
+        report["reconstruction"] = figures
+    return MissionResult(report=report, log=arrays, contact_data=contacts.data.copy(), surface=surface)

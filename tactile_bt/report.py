@@ -1,9 +1,11 @@
-"""Mission outputs: report.json, log.npz, errors.png and contacts.ply."""
+"""Mission outputs: report.json, log.npz, errors.png and contacts.ply; for a scan (a mission
+whose tree or run reconstructs a surface) also surface.ply and render.png."""
 
 from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -95,11 +97,32 @@ def read_ply_points(path: str | Path) -> tuple[list[str], np.ndarray]:
     return names, np.frombuffer(raw[end:], dtype="<f4", count=n * len(names)).reshape(n, len(names))
 
 
-def write_outputs(result, out: Path) -> None:
-    """Write every output file of a mission into ``out``."""
+def write_outputs(result, out: Path, render: bool = True) -> None:
+    """Write every output file of a mission into ``out``.
+
+    A scan (the report has ``reconstruction``) also gets ``surface.ply`` (the reconstructed
+    mesh, world frame, m) and, with ``render``, ``render.png`` (:func:`tactile_bt.view.render_mission`,
+    off screen).
+    """
+    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    stale = out / "surface.ply"
+    if stale.exists():  # from an earlier run into the same directory
+        stale.unlink()
     (out / "report.json").write_text(json.dumps(_jsonable(result.report), indent=2) + "\n")
     np.savez_compressed(out / "log.npz", **result.log)
     if len(result.contact_data):
         write_ply(out / "contacts.ply", result.contact_data)
     plot_errors(result, out / "errors.png")
+    surface = getattr(result, "surface", None)
+    if surface is not None and len(surface.faces):
+        from tactile_bt.reconstruct import write_surface
+
+        write_surface(out / "surface.ply", surface)
+    if render and "reconstruction" in result.report:
+        from tactile_bt.view import render_mission
+
+        try:
+            render_mission(out, out / "render.png")
+        except Exception as exc:  # no OpenGL here: every other output is written, say so
+            warnings.warn(f"render.png not written: {type(exc).__name__}: {exc}", RuntimeWarning, stacklevel=2)

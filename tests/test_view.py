@@ -25,3 +25,29 @@ def test_view_renders_a_non_blank_png(tmp_path):
 def test_view_of_a_directory_without_a_report_says_so(tmp_path, capsys):
     assert main(["view", str(tmp_path), "--png", str(tmp_path / "x.png")]) == 2
     assert "report.json" in capsys.readouterr().err
+
+
+def _orange_share(image: np.ndarray) -> float:
+    """Share of pixels in the hue of the reconstructed surface (#e8b04a, shaded)."""
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    return float(np.mean((r > 0.45) & (r - b > 0.3) & (g > 0.45 * r) & (g < 0.85 * r)))
+
+
+def test_a_scan_mission_writes_its_surface_and_a_render_that_shows_it(tmp_path):
+    """A short stripe scan of the box's top face: run writes surface.ply and render.png (off
+    screen); the picture is not blank and shows the surface."""
+    result = run_mission(ROOT / "trees" / "surface_scan_stripes.yaml", ROOT / "sim" / "scan_box.yaml", duration=4.0,
+                         out=tmp_path, scan_region={"normal": [0, 0, 1], "max_angle_deg": 10})
+    r = result.report["reconstruction"]
+    assert r["method"] == "delaunay" and r["faces"] > 1000
+    assert r["accuracy_m"] < 1e-3 and 0.1 < r["coverage"] <= 1.0 and r["longest_gap_s"] == 0.0
+    for name in ("contacts.ply", "surface.ply", "render.png", "report.json"):
+        assert (tmp_path / name).exists(), name
+    image = mpimg.imread(tmp_path / "render.png")[..., :3]
+    assert len(np.unique((image * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 100
+    assert np.mean(np.any(image < 0.95, axis=2)) > 0.2
+    with_surface = _orange_share(image)
+    (tmp_path / "surface.ply").unlink()
+    assert main(["view", str(tmp_path), "--png", str(tmp_path / "no_surface.png")]) == 0
+    without = _orange_share(mpimg.imread(tmp_path / "no_surface.png")[..., :3])
+    assert with_surface > 0.005 and with_surface > 3 * without

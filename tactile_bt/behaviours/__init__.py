@@ -11,6 +11,7 @@ from tactile_bt.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.behaviours.motion import Approach, GuidedSlide
 from tactile_bt.behaviours.parameters import BlackboardReferenceError, bind_blackboard
 from tactile_bt.behaviours.record import ContactCloud, RecordContacts
+from tactile_bt.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
 from tactile_bt.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 
 #: YAML node type → leaf class.
@@ -23,6 +24,9 @@ LEAVES = {
     "tactile_servo": TactileServo,
     "guided_slide": GuidedSlide,
     "record_contacts": RecordContacts,
+    "scan_direction": ScanDirection,
+    "stripe_end": StripeEnd,
+    "coverage_stalled": CoverageStalled,
     "contact_lost": ContactLost,
     "force_limit": ForceLimit,
 }
@@ -48,6 +52,9 @@ __all__ = [
     "GuidedSlide",
     "RecordContacts",
     "ContactCloud",
+    "ScanDirection",
+    "StripeEnd",
+    "CoverageStalled",
     "ContactLost",
     "ForceLimit",
     "MissionTimeout",

@@ -51,6 +51,7 @@ TOP_LEVEL = {
     "mount": "mapping",
     "objects": "list",
     "events": "list",
+    "scan_region": "mapping",
 }
 SENSOR = {f.name: (_INT if f.type in ("int", int) else _NONNEGATIVE) for f in dataclasses.fields(SensorParams)}
 SENSOR.update(pitch=_POSITIVE, foam_stiffness=_POSITIVE)
@@ -273,6 +274,13 @@ def build_scene(root: Located) -> Scene:
             where_ = section.value.get("type", section)
             raise where_.error(str(exc)) from None
     scene.objects = [_build_object(item, i, root.file) for i, item in enumerate(top.get("objects", []))]
+    if "scan_region" in top:  # what a surface scan sets out to cover (tactile_bt.scan_metrics)
+        from tactile_bt.scan_metrics import check_region
+
+        try:
+            check_region(plain(root.value["scan_region"]))
+        except ValueError as exc:
+            raise root.value["scan_region"].error(str(exc)) from None
     scene.events = [_build_event(item, i, len(scene.objects)) for i, item in enumerate(top.get("events", []))]
     return scene
 
