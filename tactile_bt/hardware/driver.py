@@ -264,12 +264,15 @@ class SerialTactileSensor:
         """Newest complete frame not returned by read() before.
 
         Waits up to ``timeout`` seconds (default: the constructor's) for one; older frames
-        are skipped.  Raises :class:`TimeoutError` when none comes and
-        :class:`SensorDisconnectedError` when the port vanished.
+        are skipped.  Raises :class:`TimeoutError` when none comes,
+        :class:`SensorDisconnectedError` as soon as the port has vanished and
+        :class:`SensorError` once the sensor is closed, even if frames that arrived before
+        that were never read (a control loop must not act on a stale frame of a dead link).
         """
         timeout = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + timeout
         with self._cond:
+            self._check()
             while self._seq == self._read_seq:
                 self._check()
                 remaining = deadline - time.monotonic()

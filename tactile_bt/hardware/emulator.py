@@ -28,6 +28,7 @@ import numpy as np
 
 from tactile_bt.defaults import ADC_MAX, COLS, MAX_SENSOR_RATE_HZ, ROWS
 from tactile_bt.hardware import protocol as P
+from tactile_bt.hardware.framing import HEADER
 from tactile_bt.hardware.faults import _GARBAGE_ALPHABET  # noqa: F401 - re-exported
 from tactile_bt.hardware.faults import (
     EmulatorLog,
@@ -115,14 +116,21 @@ class DeviceEmulator:
         self.sensor_type = sensor_type
         self.period = 1.0 / float(rate_hz)
         self._order = P.cell_permutation(cell_order, rows, cols)
+        #: Fault injection in force; assigning a new :class:`FaultConfig` from another thread is
+        #: safe: each frame reads it once when it starts, so the frame being sent meanwhile may
+        #: still carry an old fault and every later one has the new faults.
         self.faults = FaultConfig.parse(faults) if isinstance(faults, (str, type(None))) else faults
+        self._lock = threading.RLock()
         self.keep_log = keep_log
         self.log = EmulatorLog()
         self.frames_sent = 0
+        self.bytes_sent = 0
         self.error: BaseException | None = None
         self._rng = np.random.default_rng(seed)
         self._next_values = self._make_source(source, loop)
-        self._lock = threading.RLock()
+        self._datagram_len = 3 + P.TIMESTAMP_LEN + 2 * rows * cols + 1
+        self._open: list[tuple[int, int]] = []  # torn datagrams' parser candidates: (bytes missing, XOR so far)
+        self._tail = b""  # last bytes written
         self._streaming = threading.Event()
         self._restart = False
         self._stop = threading.Event()
@@ -171,28 +179,107 @@ class DeviceEmulator:
                 select.select([], [self._master], [], 0.02)
         return sent
 
-    def _device_time(self) -> int:
-        return int((time.monotonic() - self._t0) * 1e6) & 0xFFFFFFFF
+    def _send(self, data: bytes, *, junk: bool = False) -> int:
+        """Write ``data`` keeping the ground truth exact; return how many of its bytes went out.
 
-    def _emit(self, values: np.ndarray, pushed: bool = False) -> float:
-        """Send one frame with the configured faults; return the pause to add (s)."""
-        f, rng = self.faults, self._rng
+        A torn datagram is a parser candidate that the following bytes complete; with an
+        8-bit XOR it would pass in 1 of 256 cases and be delivered or arbitrated as if it
+        were valid.  So when ``data`` would complete an open candidate with a zero XOR, one
+        filler byte (logged as garbage) goes out first, chosen so that every candidate it
+        completes fails.  Garbage (``junk``) and fillers never continue a header pattern
+        begun by the bytes before them.
+        """
+        out = bytearray(data)
+        if junk and out and not self._may_follow(out[0]):
+            out[0] = next(int(v) for v in _GARBAGE_ALPHABET if self._may_follow(v))
+        filler = self._filler(bytes(out)) if self._open else b""
+        if filler and self._write(filler):
+            self._track(filler, 1)
+            self._log_event("garbage", 1)
+            self.log.garbage_bytes += 1
+        sent = self._write(bytes(out))
+        self._track(bytes(out), sent)
+        return sent
+
+    def _may_follow(self, value: int) -> bool:
+        """False if ``value`` after the bytes written so far would complete ``F0 C4 <id>``."""
+        if self._tail.endswith(HEADER):
+            return not (value in (P.DID_MASTER, P.DID_ERROR) or P.LID_MIN <= value <= P.LID_MAX)
+        return not (self._tail.endswith(HEADER[:1]) and value == HEADER[1])
+
+    def _completes_with_zero_xor(self, stream: bytes) -> bool:
+        return any(missing <= len(stream) and acc ^ P.checksum(stream[:missing]) == 0
+                   for missing, acc in self._open)
+
+    def _filler(self, data: bytes) -> bytes:
+        if not self._completes_with_zero_xor(data):
+            return b""
+        for value in _GARBAGE_ALPHABET:  # each open candidate rules out at most one value
+            if self._may_follow(value) and not self._completes_with_zero_xor(bytes([value]) + data):
+                return bytes([int(value)])
+        raise RuntimeError("no filler byte breaks every torn datagram")  # pragma: no cover
+
+    def _track(self, data: bytes, sent: int) -> None:
+        """Account ``data[:sent]`` written: byte count, tail, open candidates."""
+        if sent <= 0:
+            return
+        done = data[:sent]
+        self.bytes_sent += sent
+        self._tail = (self._tail + done)[-2:]
+        acc = P.checksum(done)
+        self._open = [(missing - sent, a ^ acc) for missing, a in self._open if missing > sent]
+
+    def _device_time(self, t: float | None = None) -> int:
+        """Device clock in microseconds at monotonic time ``t`` (default: now)."""
+        return int(((time.monotonic() if t is None else t) - self._t0) * 1e6) & 0xFFFFFFFF
+
+    def _datagram(self, values: np.ndarray, high: np.ndarray | None, sampled: float | None) -> tuple[bytes, int]:
+        """The data datagram of ``values`` stamped at ``sampled`` (default now), and its timestamp.
+
+        A timestamp whose bytes would put a header pattern inside the datagram (besides a
+        planted one) is moved on by a few microseconds: an accidental ``F0 C4 <id>`` followed
+        by garbage would make the parser drop an intact frame.
+        """
+        payload = P.encode_values(values, self._order, high)
+        patterns = 1 if high is None else 2
+        ts = self._device_time(sampled)
+        for _ in range(64):
+            datagram = P.build_data_datagram(self.sensor_id, ts, payload)
+            if datagram.count(HEADER) == patterns:
+                break
+            ts = (ts + 1) & 0xFFFFFFFF
+        return datagram, ts
+
+    def _emit(self, values: np.ndarray, pushed: bool = False, sampled: float | None = None) -> float:
+        """Send one frame with the configured faults; return the pause to add (s).
+
+        ``sampled`` is the monotonic time the frame was sampled at (default: now).  A streamed
+        frame is stamped with the time its period falls due, not the time the thread gets to
+        send it: a real device samples on its own clock, and a late thread sends a few frames
+        at once without bunching their timestamps.
+        """
         with self._lock:
+            f, rng = self.faults, self._rng
             index = self.frames_sent
             kind = choose_fault(f, rng)
             high = None
             if kind == "header":
                 values, high = plant_header(values, self._order, self.sensor_id, rng)
-            ts = self._device_time()
-            datagram = P.build_data_datagram(self.sensor_id, ts, P.encode_values(values, self._order, high))
+            datagram, ts = self._datagram(values, high, sampled)
             if kind == "bitflip":
                 datagram = flip_bit(datagram, rng)
             elif kind == "tear":
                 datagram = tear(datagram, rng)
-            sent = self._write(datagram)
+            sent = self._send(datagram)
             fault = kind if kind in ("bitflip", "tear") else None
             if sent < len(datagram):
-                fault = "tear"  # the line stalled: what went out is a torn datagram
+                fault = "tear"  # the line stalled (the host stopped reading): a torn datagram
+            if 0 < sent < 3:  # not even header and id: the parser skips it like garbage
+                self._log_event("garbage", sent)
+                self.log.garbage_bytes += sent
+                sent = 0
+            elif 0 < sent < self._datagram_len:
+                self._open.append((self._datagram_len - sent, P.checksum(datagram[:sent])))
             if sent:
                 self.frames_sent += 1
                 if self.keep_log:
@@ -200,9 +287,10 @@ class DeviceEmulator:
                     self._log_event("frame", index)
             if f.garbage and rng.random() < f.garbage and kind != "header":
                 junk = garbage_burst(f, rng)
-                self._write(junk)
-                self._log_event("garbage", len(junk))
-                self.log.garbage_bytes += len(junk)
+                sent_junk = self._send(junk, junk=True)
+                if sent_junk:
+                    self._log_event("garbage", sent_junk)
+                    self.log.garbage_bytes += sent_junk
             pause = f.pause_s if (f.pause and rng.random() < f.pause) else 0.0
             if pause:
                 self._log_event("pause", pause)
@@ -227,20 +315,23 @@ class DeviceEmulator:
         commands = self._commands.feed(data)
         with self._lock:
             for _ in range(self._commands.checksum_errors - before):
-                self._write(P.build_error(P.ERR_CHECKSUM))
+                self._send(P.build_error(P.ERR_CHECKSUM))
             for cmd in commands:
                 self._execute(cmd)
 
     def _execute(self, cmd: P.Command) -> None:
         if cmd.destination not in (P.DID_MASTER, self.sensor_id):
-            self._write(P.build_error(P.ERR_UNKNOWN_SENSOR))
+            self._send(P.build_error(P.ERR_UNKNOWN_SENSOR))
         elif cmd.command == P.CMD_STOP_STREAM:
             self._streaming.clear()
         elif cmd.command == P.CMD_START_STREAM:
             self._restart = True
             self._streaming.set()
         elif cmd.command == P.CMD_CONFIG_REQUEST:
-            self._write(P.build_config_answer(self.device_id, [(self.sensor_type, 2 * self.rows * self.cols)]))
+            # A host asking for the configuration parses afresh (the driver drops its input
+            # first): torn datagrams sent before can no longer combine with what follows.
+            self._open.clear()
+            self._send(P.build_config_answer(self.device_id, [(self.sensor_type, 2 * self.rows * self.cols)]))
         elif cmd.command == P.CMD_SET_PERIOD:
             if cmd.destination == self.sensor_id and len(cmd.data) == 2:
                 units = int.from_bytes(cmd.data, "little")
@@ -251,7 +342,7 @@ class DeviceEmulator:
                 self.period = units * P.PERIOD_UNIT_S
                 self._restart = True
         else:
-            self._write(P.build_error(P.ERR_UNKNOWN_COMMAND))
+            self._send(P.build_error(P.ERR_UNKNOWN_COMMAND))
 
     # ------------------------------------------------------------------ thread
     def _run(self) -> None:
@@ -285,7 +376,7 @@ class DeviceEmulator:
                     self._next_values = None
                     print(f"tactile emulator {self.port}: frame source failed: {exc!r}", file=sys.stderr)
                     break
-                next_due += self.period + self._emit(values)
+                next_due += self.period + self._emit(values, sampled=next_due)
                 if now - next_due > 0.1:
                     next_due = now  # fell far behind: resume the schedule instead of bursting
 

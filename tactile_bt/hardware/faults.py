@@ -11,7 +11,14 @@ To keep that ground truth exact, garbage never contains ``0xF0``, bit flips hit 
 after the datagram id and never create a new header pattern, tears keep at least header and
 id, and a header pattern is only planted in undamaged frames that no garbage follows (the
 parser drops a frame that carries a datagram start and is followed by junk: on a real line that
-is far more often a torn datagram passing the checksum by chance).
+is far more often a torn datagram passing the checksum by chance).  The emulator adds what
+depends on the bytes around a frame: no timestamp forms a header pattern, no garbage continues
+one, and a torn datagram never passes the 8-bit XOR together with the bytes that follow it
+(1 in 256 would, which the parser could not tell from a valid frame followed by garbage, or
+would drop as an overlap together with the damaged frames inside it): when the next bytes
+would complete it with a zero XOR, one filler byte of garbage goes first.  So every damaged
+frame costs the parser exactly one checksum error, as long as the host keeps reading (a line
+stalled for 0.5 s tears frames wherever it stops).
 """
 
 from __future__ import annotations

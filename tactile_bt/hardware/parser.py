@@ -100,8 +100,9 @@ class DatagramParser:
     follows from the id.  A candidate is returned only if its XOR is zero.  On a failed
     candidate the parser moves one byte on and searches the next header, so a datagram that
     follows a torn one is recovered.  An 8-bit XOR passes 1 in 256 random candidates, so a
-    torn datagram glued to the next bytes can pass; such a candidate always contains the start
-    of the next datagram.  A valid candidate with a plausible datagram start inside it is
+    torn datagram glued to the next bytes can pass; such a candidate contains the start of the
+    next datagram unless line garbage fills the rest of it (then it cannot be told from a valid
+    datagram followed by garbage).  A valid candidate with a plausible datagram start inside it is
     therefore accepted only if a header follows it (or nothing yet, when settling) and no
     overlapping valid datagram is followed by a header when it is not; otherwise it is
     dropped and counted in ``overlaps``.  Decisions depend only on the byte stream, never on

@@ -12,6 +12,7 @@ import argparse
 import sys
 import time
 from dataclasses import asdict, dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -53,9 +54,22 @@ class SoakResult:
                 f"queue_dropped={s.queue_dropped} -> {'PASS' if self.ok else 'FAIL'}")
 
 
+def _wait_until(condition: Callable[[], bool], timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.002)
+    return True
+
+
 def run_soak(seconds: float, rate_hz: float = MAX_SENSOR_RATE_HZ, faults: str | FaultConfig | None = None,
-             seed: int = 0) -> SoakResult:
-    """Stream ``seconds`` s at ``rate_hz`` through a pty and compare with the ground truth."""
+             seed: int = 0, min_frames: int = 0) -> SoakResult:
+    """Stream ``seconds`` s at ``rate_hz`` through a pty and compare with the ground truth.
+
+    With ``min_frames``, streaming goes on until that many frames were delivered too, so that
+    a loaded machine, on which the emulator cannot keep its rate, still checks that many.
+    """
     frames = []
     with DeviceEmulator(synthetic_source(rate_hz=rate_hz, seed=seed), rate_hz=rate_hz, faults=faults,
                         seed=seed) as emu:
@@ -63,12 +77,25 @@ def run_soak(seconds: float, rate_hz: float = MAX_SENSOR_RATE_HZ, faults: str | 
             end = time.monotonic() + seconds
             for frame in sensor.frames(timeout=2.0):
                 frames.append(frame)
-                if time.monotonic() >= end:
+                if time.monotonic() >= end and len(frames) >= min_frames:
                     break
-            emu.faults = FaultConfig()  # finish on a clean line so every fault is resolved
-            time.sleep(0.05)
+            # Finish on a clean line so that a later intact frame resolves every fault: the frame
+            # being sent now may still be damaged, the next one is clean and must go out (waiting
+            # some time instead is not enough on a loaded machine).
+            emu.faults = FaultConfig()
+            first_clean = emu.frames_sent + 1
+            for frame in sensor.frames(timeout=2.0):
+                frames.append(frame)
+                if emu.frames_sent > first_clean:
+                    break
             sensor.stop_streaming()
-            frames.extend(sensor.frames(timeout=0.3))
+            _wait_until(lambda: not emu.streaming, 5.0)  # then the emulator's log is final
+            expected = len(emu.log.intact())
+            if len(frames) < expected:  # collect the rest, however long the line takes
+                for frame in sensor.frames(timeout=2.0):
+                    frames.append(frame)
+                    if len(frames) >= expected:
+                        break
             stats = sensor.stats
         log = emu.log
     intact = log.intact()
