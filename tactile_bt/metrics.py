@@ -17,7 +17,7 @@ import numpy as np
 
 from tactile_bt import defaults
 
-__all__ = ["response_time", "feature_metrics", "path_error"]
+__all__ = ["response_time", "feature_metrics", "controlled_feature_metrics", "path_error"]
 
 
 def response_time(t: np.ndarray, error: np.ndarray, band: float, dwell: float = defaults.METRIC_DWELL_S) -> float:
@@ -68,6 +68,17 @@ def feature_metrics(
         "start_s": float(t[0]),
         "window_s": float(t[-1] - t[0]),
     }
+
+
+def controlled_feature_metrics(log: dict) -> dict:
+    """:func:`feature_metrics` of every controlled feature in a mission log (``t`` and
+    ``error_<name>`` series), keyed by name; features no controller ran are left out."""
+    metrics = {}
+    for name, band in defaults.METRIC_BANDS.items():
+        m = feature_metrics(log["t"], log[f"error_{name}"], band)
+        if m is not None:
+            metrics[name] = m
+    return metrics
 
 
 def path_error(points_xy: np.ndarray, cable) -> dict:

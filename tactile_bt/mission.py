@@ -23,12 +23,12 @@ from tactile_bt.behaviours.record import ContactCloud, RecordContacts
 from tactile_bt.control import ServoCommand
 from tactile_bt.features import extract
 from tactile_bt.filters import FeatureSmoother
-from tactile_bt.metrics import feature_metrics, path_error
+from tactile_bt.metrics import controlled_feature_metrics, path_error
 from tactile_bt.spatial import body_to_spatial
 
 __all__ = ["run_mission", "ControlLoop", "MissionResult", "MissionLog", "calibration_path"]
 
-_ERRORS = ("pressure_pa", "cop_x_px", "cop_y_px", "orientation_rad")
+_ERRORS = tuple(defaults.METRIC_BANDS)  # the logged error of every controllable feature
 
 
 class MissionLog:
@@ -375,13 +375,8 @@ def _scan_settings(tree, scene, reconstruct, scan_region) -> dict | None:
 def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan=None) -> MissionResult:
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
-    t = arrays["t"]
     sim_time = log.n * dt
-    metrics = {}
-    for name in _ERRORS:
-        m = feature_metrics(t, arrays[f"error_{name}"], defaults.METRIC_BANDS[name])
-        if m is not None:
-            metrics[name] = m
+    metrics = controlled_feature_metrics(arrays)
     report = {
         "tree": getattr(tree, "source", getattr(tree.root, "name", "tree")),
         "scene": scene.file,
@@ -416,6 +411,6 @@ def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, sc
             surface, figures = evaluate_scan(scene, contacts.data, scan["method"], scan["region"])
         except Exception as exc:  # a failed reconstruction must not lose the mission's outputs
             figures = {"method": scan["method"], "error": f"{type(exc).__name__}: {exc}"}
-        figures.update(contact_continuity(t, arrays["in_contact"]))
+        figures.update(contact_continuity(arrays["t"], arrays["in_contact"]))
         report["reconstruction"] = figures
     return MissionResult(report=report, log=arrays, contact_data=contacts.data.copy(), surface=surface)

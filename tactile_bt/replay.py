@@ -39,7 +39,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     from tactile_bt.hardware.recording import read_recording
     from tactile_bt.loader import load_tree
     from tactile_bt.mission import ControlLoop, MissionLog, MissionResult, calibration_path
-    from tactile_bt.metrics import feature_metrics
+    from tactile_bt.metrics import controlled_feature_metrics
 
     if not isinstance(tree, py_trees.trees.BehaviourTree):
         tree = load_tree(tree)
@@ -76,11 +76,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         tree.interrupt()
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
-    metrics = {}
-    for name, band in defaults.METRIC_BANDS.items():
-        m = feature_metrics(arrays["t"], arrays[f"error_{name}"], band)
-        if m is not None:
-            metrics[name] = m
+    metrics = controlled_feature_metrics(arrays)
     report = {
         "tree": getattr(tree, "source", tree.root.name),
         "recording": str(recording),
