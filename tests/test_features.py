@@ -1,10 +1,9 @@
-"""Tests of tactile_bt.features: contact region, COP, pressure, orientation, robustness, speed."""
+"""Tests of tactile_bt.features: contact region, COP, pressure, orientation, robustness (speed: ``tactile-bt bench``)."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import timeit
 
 import numpy as np
 import pytest
@@ -96,9 +95,8 @@ def test_spurious_blob_is_ignored():
     spiky = add_spurious_blob(clean, rng, force_n=0.2)
     a, b = extract(clean), extract(spiky)
     assert_array_equal(a.mask, b.mask)
-    assert a.force == b.force and a.area == b.area
-    assert_array_equal(a.cop_px, b.cop_px)
-    assert a.orientation == b.orientation
+    assert a.area == b.area
+    assert_allclose([a.force, *a.cop_px, a.orientation], [b.force, *b.cop_px, b.orientation], rtol=1e-12, atol=1e-12)
 
 
 def test_largest_region_wins_and_ties_go_to_the_larger_force():
@@ -184,8 +182,10 @@ def test_method_none_skips_orientation(monkeypatch):
     f = extract(img, method=None)
     assert f.method is None and math.isnan(f.orientation)
     g = extract(img)
-    assert g.method == "moments" and f.force == g.force
-    assert_array_equal(f.cop_px, g.cop_px)
+    # The moments path computes the COP from its own matrix products: equal to rounding.
+    assert g.method == "moments"
+    assert_allclose(f.force, g.force, rtol=1e-12)
+    assert_allclose(f.cop_px, g.cop_px, rtol=0, atol=1e-12)
 
     def boom(*args, **kwargs):
         raise AssertionError("Hough must not run")
@@ -193,13 +193,6 @@ def test_method_none_skips_orientation(monkeypatch):
     monkeypatch.setattr(features, "hough_orientation", boom)
     extract(img, method=None)
     extract(img, method="moments")
-
-
-def test_method_none_is_cheaper_than_orientation():
-    img = line_contact((7.5, 7.5), 0.5, 9.0, 2.0, 2.0)
-    t_none = min(timeit.repeat(lambda: extract(img, method=None), number=300, repeat=5))
-    t_hough = min(timeit.repeat(lambda: extract(img, method="hough"), number=30, repeat=3)) * 10
-    assert t_none * 3 < t_hough
 
 
 # ---------------------------------------------------------------------------- robustness
@@ -215,8 +208,7 @@ def test_invalid_tactels_are_zeroed_and_counted():
     for v in (f.force, f.pressure, *f.cop_px, f.orientation):
         assert math.isfinite(v)
     ref = extract(np.where(np.isfinite(dirty) & (dirty >= 0), dirty, 0.0))
-    assert f.force == ref.force
-    assert_array_equal(f.cop_px, ref.cop_px)
+    assert_allclose([f.force, *f.cop_px], [ref.force, *ref.cop_px], rtol=1e-12, atol=1e-12)
     # inf at the contact centre is replaced, not propagated
     dirty[7, 7] = np.inf
     g = extract(dirty)
@@ -314,11 +306,3 @@ def test_regionprops_baseline_agrees():
         if not math.isnan(a.orientation):
             assert angle_error(a.orientation, b.orientation) < 1e-9
     assert not extract_with_regionprops(np.zeros(PAD)).in_contact
-
-
-def test_faster_than_regionprops_baseline():
-    rng = np.random.default_rng(0)
-    img = sensor_effects(add_spurious_blob(line_contact((7.3, 8.1), 0.6, 9, 2, 2.0), rng), rng)
-    t_fast = min(timeit.repeat(lambda: extract(img), number=200, repeat=7))
-    t_base = min(timeit.repeat(lambda: extract_with_regionprops(img), number=40, repeat=7)) * 5
-    assert t_base / t_fast >= 4.0, f"only {t_base / t_fast:.1f}x faster than regionprops"
