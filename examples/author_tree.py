@@ -1,5 +1,8 @@
-"""Author the cable-following tree in Python with the same classes the YAML loader uses, run it
-on the simulated cable and print the report.
+"""Author the cable-following tree of ``trees/cable_follow.yaml`` in Python with the same
+classes the YAML loader uses, run it on the simulated cable and print the report.
+
+Node for node the same tree as the YAML file, including its levelling row (see the comment at
+the top of ``trees/cable_follow.yaml``: without it the compliant arm's tilt stalls the pad).
 
     python examples/author_tree.py
 """
@@ -10,29 +13,43 @@ import numpy as np
 import py_trees
 
 from tactile_bt import run_mission
-from tactile_bt.behaviours import AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, RecordContacts
+from tactile_bt.behaviours import (AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, RecordContacts,
+                                  TactileServo)
 
 ROOT = Path(__file__).resolve().parent.parent
 
-follow = py_trees.composites.Parallel(
-    "follow",
-    policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
-    children=[
-        ForceHold(target_pa=2000.0),  # P row vz
-        Centre(target_m=(0.0, 0.0)),  # P rows vx, vy
-        AlignEdge(target_rad=np.pi / 2),  # P row wz: the cable along the sensor y axis
-        GuidedSlide(twist=(0.0, 0.02, 0.0, 0.0, 0.0, 0.0)),  # V_ext along y
-        RecordContacts(point="local"),
-        ContactLost(grace_s=0.3),
-    ],
-)
-root = py_trees.composites.Sequence("cable_follow", memory=True, children=[Approach(pressure_pa=800.0), follow])
-tree = py_trees.trees.BehaviourTree(root)
-print(py_trees.display.unicode_tree(root))
 
-result = run_mission(tree, ROOT / "sim" / "cable.yaml", duration=10.0, seed=0)
-report = result.report
-print(f"status {report['status']}, {report['real_time_factor']:.1f}x real time")
-for name, m in report["metrics"].items():
-    print(f"{name:16s} steady-state {m['steady_state_error']:+.4g}  std {m['std']:.4g}  response {m['response_time_s']:.2f} s")
-print(f"path error mean {report['path_error_m']['mean'] * 1e3:.2f} mm, max {report['path_error_m']['max'] * 1e3:.2f} mm")
+def build_tree() -> py_trees.trees.BehaviourTree:
+    """The cable-following tree, node for node as trees/cable_follow.yaml."""
+    follow = py_trees.composites.Parallel(
+        "follow",
+        policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+        children=[
+            ForceHold(target_pa=2000.0),  # P row vz
+            Centre(target_m=(0.0, 0.0), ki=0.0),  # P rows vx, vy
+            TactileServo(  # P row wx <- dy: level the pad along the cable
+                name="level_along_cable", P=(0, 0, 0, 1, 0, 0),
+                kp=(0.0, 1.0, 0.0, 0.0), ki=(0.0, 0.2, 0.0, 0.0), kd=(0.0, 0.0, 0.0, 0.0),
+            ),
+            AlignEdge(target_rad=np.pi / 2),  # P row wz: the cable along the sensor y axis
+            GuidedSlide(twist=(0.0, 0.02, 0.0, 0.0, 0.0, 0.0)),  # V_ext along y
+            RecordContacts(point="local"),
+            ContactLost(grace_s=0.3),
+        ],
+    )
+    approach = Approach(speed_mps=0.01, pressure_pa=800.0, timeout_s=5.0)
+    root = py_trees.composites.Sequence("cable_follow", memory=True, children=[approach, follow])
+    return py_trees.trees.BehaviourTree(root)
+
+
+if __name__ == "__main__":
+    tree = build_tree()
+    print(py_trees.display.unicode_tree(tree.root))
+    result = run_mission(tree, ROOT / "sim" / "cable.yaml", duration=10.0, seed=0)
+    report = result.report
+    print(f"status {report['status']} {report['reason']}, {report['real_time_factor']:.1f}x real time")
+    for name, m in report["metrics"].items():
+        print(f"{name:16s} steady-state {m['steady_state_error']:+.4g}  std {m['std']:.4g}  response {m['response_time_s']:.2f} s")
+    p = report["path_error_m"]
+    print(f"path error mean {p['mean'] * 1e3:.2f} mm, max {p['max'] * 1e3:.2f} mm, "
+          f"followed {p['followed_m'] * 1e3:.0f} of {p['cable_length_m'] * 1e3:.0f} mm")

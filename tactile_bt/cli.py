@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -13,32 +14,68 @@ import numpy as np
 __all__ = ["main"]
 
 
-class _Progress:
-    """A one-line progress bar on stderr for runs longer than a second (terminals only)."""
+def _positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
 
-    def __init__(self) -> None:
-        self.start = time.perf_counter()
-        self.enabled = sys.stderr.isatty()
-        self.shown = False
 
-    def __call__(self, t: float, duration: float) -> None:
-        if not self.enabled or time.perf_counter() - self.start < 1.0:
-            return
-        width = 30
-        done = int(width * t / duration)
-        sys.stderr.write(f"\r[{'#' * done}{'.' * (width - done)}] {t:5.1f}/{duration:.1f} s")
-        sys.stderr.flush()
-        self.shown = True
+def _positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+    return value
 
-    def close(self) -> None:
-        if self.shown:
-            sys.stderr.write("\n")
+
+def _seed(text: str) -> int:
+    """argparse type: a seed of numpy's generators (an integer >= 0)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0 (numpy seeds are non-negative), got {text!r}")
+    return value
+
+
+def _check_output_file(path: str | None, option: str) -> None:
+    """Fail before any work when ``path`` (a file to write) cannot be written: it is a
+    directory, or its parent is missing or a file."""
+    if path is None:
+        return
+    target = Path(path)
+    if target.is_dir():
+        raise CommandLineError(f"{option} {path}: is a directory, expected a file name")
+    parent = target.parent
+    if not parent.exists():
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+        except OSError:
+            blocker = next((p for p in parent.parents if p.exists() and not p.is_dir()), parent)
+            raise CommandLineError(f"{option} {path}: cannot create the folder, {blocker} is a file") from None
+    elif not parent.is_dir():
+        raise CommandLineError(f"{option} {path}: {parent} is a file, not a folder")
+
+
+class CommandLineError(ValueError):
+    """A command-line value that cannot be used; printed as one ``error:`` line."""
 
 
 def _cmd_run(args) -> int:
     from tactile_bt.mission import run_mission
 
-    progress = _Progress()
+    from tactile_bt.progress import Progress
+
+    progress = Progress(args.duration or 0.0, unit="s", label="mission time")
     try:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
@@ -98,7 +135,8 @@ def _cmd_tree(args) -> int:
 def _cmd_view(args) -> int:
     from tactile_bt.view import render_mission
 
-    png = render_mission(args.dir, args.png, color_by=args.color_by)
+    _check_output_file(args.png, "--png")
+    png = render_mission(Path(args.dir), args.png, color_by=args.color_by)
     if png is not None:
         print(f"rendered {png}")
     return 0
@@ -142,6 +180,7 @@ def _cmd_stability(args) -> int:
 def _cmd_accuracy(args) -> int:
     from tactile_bt.synthetic import cop_accuracy, orientation_comparison
 
+    _check_output_file(args.png, "--png")
     orientation = orientation_comparison(trials=args.trials, seed=args.seed)
     cop = cop_accuracy(trials=args.trials, seed=args.seed)
     if args.json:
@@ -179,14 +218,18 @@ def _cmd_accuracy(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from tactile_bt import __version__
+
     parser = argparse.ArgumentParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a tree against a simulated scene")
     run.add_argument("tree", help="YAML tree file")
     run.add_argument("--scene", required=True, help="YAML scene file")
-    run.add_argument("--duration", type=float, default=None, help="mission time in s (default: the scene's)")
-    run.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
+    run.add_argument("--duration", type=_positive_float, default=None,
+                     help="mission time budget in s, > 0 (default: the scene's duration_s)")
+    run.add_argument("--seed", type=_seed, default=None, help="random seed, >= 0 (default: the scene's)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. objects.1.stiffness=1e5 (repeatable)")
     run.add_argument("--orientation", choices=("moments", "hough"), default="moments",
@@ -194,9 +237,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--via-emulator", action="store_true",
                      help="carry every frame through the device emulator, a pty and the serial driver")
     run.add_argument("--record", default=None, metavar="FILE", help="record frames and poses (chunked, crash-safe)")
-    run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull"),
-                     help="reconstruct a surface from the contacts (default: as the tree's record_contacts says)")
-    run.add_argument("--out", required=True, help="output directory")
+    run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull", "none"),
+                     help="reconstruct a surface from the contacts, or 'none' (default: as the tree's "
+                          "record_contacts says)")
+    run.add_argument("--out", required=True,
+                     help="output directory; the outputs of an earlier run there are replaced")
     run.set_defaults(func=_cmd_run)
 
     replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses")
@@ -204,12 +249,13 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--tree", required=True, help="YAML tree file")
     replay.add_argument("--calibration", default=None, help="calibration .npz (default: <recording>.calibration.npz)")
     replay.add_argument("--speed", type=float, default=None, help="1 = recorded pace (default: as fast as possible)")
-    replay.add_argument("--orientation", choices=("moments", "hough"), default="moments")
+    replay.add_argument("--orientation", choices=("moments", "hough"), default="moments",
+                        help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
     replay.set_defaults(func=_cmd_replay)
 
     tree = sub.add_parser("tree", help="validate and print a YAML tree")
-    tree.add_argument("tree")
+    tree.add_argument("tree", help="YAML tree file")
     tree.add_argument("--dot", default=None, help="also write a Graphviz dot file")
     tree.set_defaults(func=_cmd_tree)
 
@@ -220,25 +266,26 @@ def build_parser() -> argparse.ArgumentParser:
     view.set_defaults(func=_cmd_view)
 
     bench = sub.add_parser("bench", help="speed figures, as ratios measured in one run")
-    bench.add_argument("--json", action="store_true")
-    bench.add_argument("--quick", action="store_true", help="fewer repetitions")
+    bench.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    bench.add_argument("--quick", action="store_true", help="fewer repetitions (noisier figures)")
     bench.set_defaults(func=_cmd_bench)
 
     paper = sub.add_parser("paper", help="reproduce the paper's Tables I-III and Figs. 8-11 (20 trials each)")
-    paper.add_argument("--trials", type=int, default=20)
-    paper.add_argument("--duration", type=float, default=22.0, help="mission time per trial (s)")
-    paper.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
-    paper.add_argument("--out", default="out/paper")
+    paper.add_argument("--trials", type=_positive_int, default=20, help="seeded trials per experiment (default: 20)")
+    paper.add_argument("--duration", type=_positive_float, default=22.0,
+                       help="mission time per trial in s (default: 22)")
+    paper.add_argument("--workers", type=_positive_int, default=None, help="processes (default: one per core)")
+    paper.add_argument("--out", default="out/paper", help="output directory (default: out/paper)")
     paper.set_defaults(func=_cmd_paper)
 
     stab = sub.add_parser("stability", help="stiffness sweep, extreme cases and control rates")
-    stab.add_argument("--out", default="out/stability")
+    stab.add_argument("--out", default="out/stability", help="output directory (default: out/stability)")
     stab.add_argument("--no-rates", action="store_true", help="skip the cable mission at 100-1900 Hz")
     stab.set_defaults(func=_cmd_stability)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
-    acc.add_argument("--trials", type=int, default=20)
-    acc.add_argument("--seed", type=int, default=0)
+    acc.add_argument("--trials", type=_positive_int, default=20, help="synthetic contacts per angle (default: 20)")
+    acc.add_argument("--seed", type=_seed, default=0, help="random seed, >= 0 (default: 0)")
     acc.add_argument("--json", action="store_true", help="print JSON instead of tables")
     acc.add_argument("--png", default=None, help="also draw the comparison like the paper's Fig. 4")
     acc.set_defaults(func=_cmd_accuracy)
@@ -256,16 +303,23 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from tactile_bt.behaviours.parameters import BlackboardReferenceError
+    from tactile_bt.report import OutputPathError
     from tactile_bt.yamlutil import YamlError
 
     try:
         return int(args.func(args) or 0)
-    except (YamlError, BlackboardReferenceError) as exc:
+    except (YamlError, BlackboardReferenceError, CommandLineError, OutputPathError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        out = getattr(args, "out", None)
+        kept = f"; the outputs of every cycle so far are in {out}" if out and args.command == "run" else ""
+        lead = "\n" if sys.stderr.isatty() else ""  # below a progress bar
+        print(f"{lead}interrupted{kept}", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

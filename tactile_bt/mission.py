@@ -288,6 +288,10 @@ def run_mission(
     scan = _scan_settings(tree, scene, reconstruct, scan_region)
     duration = float(scene.duration_s if duration is None else duration)
     seed = int(scene.seed if seed is None else seed)
+    if out is not None:  # before the mission: a path that cannot be written loses nothing
+        from tactile_bt.report import prepare_output_dir
+
+        prepare_output_dir(out)
     rng = np.random.default_rng(seed)
     world = scene.build_world(rng)
     dt = 1.0 / scene.rate_hz
@@ -343,8 +347,10 @@ def run_mission(
                 reason = _failure_reason(tree.root)
                 break
     except BaseException as exc:
-        status = "error"
-        reason = f"{type(exc).__name__}: {exc}"
+        if isinstance(exc, KeyboardInterrupt):
+            status, reason = "interrupted", f"interrupted at {log.n * dt:.2f} s of mission time"
+        else:
+            status, reason = "error", f"{type(exc).__name__}: {exc}"
         result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan)
         if out is not None:
             result.save(out)
@@ -377,9 +383,12 @@ def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, sc
     arrays = log.arrays()
     sim_time = log.n * dt
     metrics = controlled_feature_metrics(arrays)
+    if status == "completed" and not np.any(arrays["in_contact"] == 1):
+        status, reason = "failure", "no contact was made"
     report = {
         "tree": getattr(tree, "source", getattr(tree.root, "name", "tree")),
-        "scene": scene.file,
+        # absolute, so that `tactile-bt view DIR` finds the scene from any directory
+        "scene": str(Path(scene.file).resolve()) if scene.file else "",
         "seed": seed,
         "status": status,
         "reason": reason,

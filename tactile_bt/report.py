@@ -12,7 +12,39 @@ import numpy as np
 
 from tactile_bt import defaults
 
-__all__ = ["plot_errors", "write_outputs", "write_ply", "read_ply_points"]
+__all__ = ["OUTPUT_FILES", "OutputPathError", "prepare_output_dir", "plot_errors", "write_outputs", "write_ply", "read_ply_points"]
+
+#: Every file a mission may write into its output directory.
+OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "contacts.ply", "surface.ply", "render.png")
+
+
+class OutputPathError(ValueError):
+    """An output path that cannot be written (it is a file, or lies under one)."""
+
+
+def prepare_output_dir(out: str | Path) -> Path:
+    """Make ``out`` ready for a mission's outputs before the mission starts.
+
+    Creates the directory (and its parents) and removes the files an earlier mission left
+    there (:data:`OUTPUT_FILES` only; other files are kept), so the directory never mixes two
+    runs. Raises :class:`OutputPathError` naming the path when it is a file or lies under one,
+    or cannot be created.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputPathError(f"{out}: is a file, not a directory (choose another --out)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        parent = next((p for p in out.parents if p.exists() and not p.is_dir()), out.parent)
+        raise OutputPathError(f"{out}: cannot create the directory, {parent} is a file") from None
+    except OSError as exc:
+        raise OutputPathError(f"{out}: cannot create the directory ({exc.strerror})") from None
+    for name in OUTPUT_FILES:
+        stale = out / name
+        if stale.is_file() or stale.is_symlink():
+            stale.unlink()
+    return out
 
 
 def _jsonable(value):
@@ -104,11 +136,7 @@ def write_outputs(result, out: Path, render: bool = True) -> None:
     mesh, world frame, m) and, with ``render``, ``render.png`` (:func:`tactile_bt.view.render_mission`,
     off screen).
     """
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    stale = out / "surface.ply"
-    if stale.exists():  # from an earlier run into the same directory
-        stale.unlink()
+    out = prepare_output_dir(out)
     (out / "report.json").write_text(json.dumps(_jsonable(result.report), indent=2) + "\n")
     np.savez_compressed(out / "log.npz", **result.log)
     if len(result.contact_data):
