@@ -36,8 +36,17 @@ class _Progress:
 
 
 def _cmd_run(args) -> int:
-    from tactile_bt.mission import run_mission
+    from tactile_bt.mission import calibration_path, run_mission
 
+    if args.record is not None:  # before the mission: never overwrite a file unasked
+        from tactile_bt.hardware.options import OutputPathError, check_output
+
+        try:
+            check_output(args.record, args.force)
+            check_output(calibration_path(args.record), args.force)
+        except OutputPathError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
     progress = _Progress()
     try:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
@@ -69,16 +78,24 @@ def _print_report(r: dict) -> None:
 
 
 def _cmd_replay(args) -> int:
-    from tactile_bt.replay import replay_mission
+    from tactile_bt.hardware.options import one_line_warnings
+    from tactile_bt.hardware.recording import RecordingError
+    from tactile_bt.replay import ReplayError, replay_mission
 
-    result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
-                            orientation_method=args.orientation, out=args.out)
+    try:
+        with one_line_warnings():
+            result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
+                                    orientation_method=args.orientation, out=args.out)
+    except (RecordingError, ReplayError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     r = result.report
-    print(f"{r['status']} after {r['ticks']} frames ({r['real_time_factor']:.1f}x the recorded pace)")
+    print(f"{r['status']}{': ' + r['reason'] if r['reason'] else ''} after {r['ticks']} frames "
+          f"({r['real_time_factor']:.1f}x the recorded pace)")
     _print_report(r)
     if args.out:
         print(f"  outputs in {args.out}")
-    return 0
+    return 0 if r["status"] in ("success", "completed") else 1
 
 
 def _cmd_tree(args) -> int:
@@ -193,18 +210,26 @@ def build_parser() -> argparse.ArgumentParser:
                      help="edge orientation method (default: moments)")
     run.add_argument("--via-emulator", action="store_true",
                      help="carry every frame through the device emulator, a pty and the serial driver")
-    run.add_argument("--record", default=None, metavar="FILE", help="record frames and poses (chunked, crash-safe)")
+    run.add_argument("--record", default=None, metavar="FILE",
+                     help="record frames and poses (chunked, crash-safe) and FILE.calibration.npz")
+    run.add_argument("--force", action="store_true", help="overwrite an existing --record FILE and its FILE.calibration.npz")
     run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull"),
                      help="reconstruct a surface from the contacts (default: as the tree's record_contacts says)")
     run.add_argument("--out", required=True, help="output directory")
     run.set_defaults(func=_cmd_run)
 
-    replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses")
-    replay.add_argument("recording", help="recording from 'run --record' or 'sensor record'")
+    from tactile_bt.hardware.options import positive_float
+
+    replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses "
+                                           "('sensor replay' only prints the frames)")
+    replay.add_argument("recording", metavar="RECORDING", help="a recording made by 'run --record' or 'sensor record'")
     replay.add_argument("--tree", required=True, help="YAML tree file")
-    replay.add_argument("--calibration", default=None, help="calibration .npz (default: <recording>.calibration.npz)")
-    replay.add_argument("--speed", type=float, default=None, help="1 = recorded pace (default: as fast as possible)")
-    replay.add_argument("--orientation", choices=("moments", "hough"), default="moments")
+    replay.add_argument("--calibration", default=None, metavar="FILE",
+                        help="calibration .npz (default: RECORDING.calibration.npz, else the nominal one, with a warning)")
+    replay.add_argument("--speed", type=positive_float, default=None,
+                        help="1 = the recorded pace, 2 = twice as fast (default: as fast as possible)")
+    replay.add_argument("--orientation", choices=("moments", "hough"), default="moments",
+                        help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
     replay.set_defaults(func=_cmd_replay)
 
