@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -12,39 +11,6 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["main"]
-
-
-def _positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
-    return value
-
-
-def _seed(text: str) -> int:
-    """argparse type: a seed of numpy's generators (an integer >= 0)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0 (numpy seeds are non-negative), got {text!r}")
-    return value
 
 
 def _check_output_file(path: str | None, option: str) -> None:
@@ -71,8 +37,17 @@ class CommandLineError(ValueError):
 
 
 def _cmd_run(args) -> int:
-    from tactile_bt.mission import run_mission
+    from tactile_bt.mission import calibration_path, run_mission
 
+    if args.record is not None:  # before the mission: never overwrite a file unasked
+        from tactile_bt.hardware.options import OutputPathError, check_output
+
+        try:
+            check_output(args.record, args.force)
+            check_output(calibration_path(args.record), args.force)
+        except OutputPathError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
     from tactile_bt.progress import Progress
 
     progress = Progress(args.duration or 0.0, unit="s", label="mission time")
@@ -106,16 +81,24 @@ def _print_report(r: dict) -> None:
 
 
 def _cmd_replay(args) -> int:
-    from tactile_bt.replay import replay_mission
+    from tactile_bt.hardware.options import one_line_warnings
+    from tactile_bt.hardware.recording import RecordingError
+    from tactile_bt.replay import ReplayError, replay_mission
 
-    result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
-                            orientation_method=args.orientation, out=args.out)
+    try:
+        with one_line_warnings():
+            result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
+                                    orientation_method=args.orientation, out=args.out)
+    except (RecordingError, ReplayError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     r = result.report
-    print(f"{r['status']} after {r['ticks']} frames ({r['real_time_factor']:.1f}x the recorded pace)")
+    print(f"{r['status']}{': ' + r['reason'] if r['reason'] else ''} after {r['ticks']} frames "
+          f"({r['real_time_factor']:.1f}x the recorded pace)")
     _print_report(r)
     if args.out:
         print(f"  outputs in {args.out}")
-    return 0
+    return 0 if r["status"] in ("success", "completed") else 1
 
 
 def _cmd_tree(args) -> int:
@@ -219,6 +202,7 @@ def _cmd_accuracy(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from tactile_bt import __version__
+    from tactile_bt.hardware.options import nonnegative_int, positive_float, positive_int
 
     parser = argparse.ArgumentParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -227,16 +211,18 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a tree against a simulated scene")
     run.add_argument("tree", help="YAML tree file")
     run.add_argument("--scene", required=True, help="YAML scene file")
-    run.add_argument("--duration", type=_positive_float, default=None,
+    run.add_argument("--duration", type=positive_float, default=None,
                      help="mission time budget in s, > 0 (default: the scene's duration_s)")
-    run.add_argument("--seed", type=_seed, default=None, help="random seed, >= 0 (default: the scene's)")
+    run.add_argument("--seed", type=nonnegative_int, default=None, help="random seed, >= 0 (default: the scene's)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. objects.1.stiffness=1e5 (repeatable)")
     run.add_argument("--orientation", choices=("moments", "hough"), default="moments",
                      help="edge orientation method (default: moments)")
     run.add_argument("--via-emulator", action="store_true",
                      help="carry every frame through the device emulator, a pty and the serial driver")
-    run.add_argument("--record", default=None, metavar="FILE", help="record frames and poses (chunked, crash-safe)")
+    run.add_argument("--record", default=None, metavar="FILE",
+                     help="record frames and poses (chunked, crash-safe) and FILE.calibration.npz")
+    run.add_argument("--force", action="store_true", help="overwrite an existing --record FILE and its FILE.calibration.npz")
     run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull", "none"),
                      help="reconstruct a surface from the contacts, or 'none' (default: as the tree's "
                           "record_contacts says)")
@@ -244,11 +230,14 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output directory; the outputs of an earlier run there are replaced")
     run.set_defaults(func=_cmd_run)
 
-    replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses")
-    replay.add_argument("recording", help="recording from 'run --record' or 'sensor record'")
+    replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses "
+                                           "('sensor replay' only prints the frames)")
+    replay.add_argument("recording", metavar="RECORDING", help="a recording made by 'run --record' or 'sensor record'")
     replay.add_argument("--tree", required=True, help="YAML tree file")
-    replay.add_argument("--calibration", default=None, help="calibration .npz (default: <recording>.calibration.npz)")
-    replay.add_argument("--speed", type=float, default=None, help="1 = recorded pace (default: as fast as possible)")
+    replay.add_argument("--calibration", default=None, metavar="FILE",
+                        help="calibration .npz (default: RECORDING.calibration.npz, else the nominal one, with a warning)")
+    replay.add_argument("--speed", type=positive_float, default=None,
+                        help="1 = the recorded pace, 2 = twice as fast (default: as fast as possible)")
     replay.add_argument("--orientation", choices=("moments", "hough"), default="moments",
                         help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
@@ -271,10 +260,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=_cmd_bench)
 
     paper = sub.add_parser("paper", help="reproduce the paper's Tables I-III and Figs. 8-11 (20 trials each)")
-    paper.add_argument("--trials", type=_positive_int, default=20, help="seeded trials per experiment (default: 20)")
-    paper.add_argument("--duration", type=_positive_float, default=22.0,
+    paper.add_argument("--trials", type=positive_int, default=20, help="seeded trials per experiment (default: 20)")
+    paper.add_argument("--duration", type=positive_float, default=22.0,
                        help="mission time per trial in s (default: 22)")
-    paper.add_argument("--workers", type=_positive_int, default=None, help="processes (default: one per core)")
+    paper.add_argument("--workers", type=positive_int, default=None, help="processes (default: one per core)")
     paper.add_argument("--out", default="out/paper", help="output directory (default: out/paper)")
     paper.set_defaults(func=_cmd_paper)
 
@@ -284,8 +273,8 @@ def build_parser() -> argparse.ArgumentParser:
     stab.set_defaults(func=_cmd_stability)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
-    acc.add_argument("--trials", type=_positive_int, default=20, help="synthetic contacts per angle (default: 20)")
-    acc.add_argument("--seed", type=_seed, default=0, help="random seed, >= 0 (default: 0)")
+    acc.add_argument("--trials", type=positive_int, default=20, help="synthetic contacts per angle (default: 20)")
+    acc.add_argument("--seed", type=nonnegative_int, default=0, help="random seed, >= 0 (default: 0)")
     acc.add_argument("--json", action="store_true", help="print JSON instead of tables")
     acc.add_argument("--png", default=None, help="also draw the comparison like the paper's Fig. 4")
     acc.set_defaults(func=_cmd_accuracy)

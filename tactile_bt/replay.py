@@ -7,7 +7,9 @@ deterministically: the same recording and tree give the same features and twists
 
 from __future__ import annotations
 
+import math
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +19,11 @@ from py_trees.common import Status
 from tactile_bt import defaults
 from tactile_bt.calibration import TactelCalibration
 
-__all__ = ["replay_mission"]
+__all__ = ["replay_mission", "ReplayError"]
+
+
+class ReplayError(ValueError):
+    """A replay cannot start: its calibration or pace is unusable; the message names which."""
 
 
 def replay_mission(tree, recording: str | Path, calibration: TactelCalibration | str | Path | None = None,
@@ -31,27 +37,56 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         A chunked recording (:mod:`tactile_bt.hardware.recording`).
     calibration : TactelCalibration or path, optional
         Raw counts → newtons. Default: ``<recording>.calibration.npz`` when it exists (written by
-        mission recordings), else the nominal characteristic.
+        mission recordings), else the nominal characteristic, with a
+        :class:`~tactile_bt.hardware.recording.RecordingWarning`.
     speed : float, optional
         ``None`` as fast as possible, ``1.0`` at the recorded pace, ``2.0`` twice as fast.
         The results do not depend on it.
+
+    A torn last chunk is left out with a ``RecordingWarning``; ``report["warnings"]`` lists
+    every warning of the replay.  Raises :class:`~tactile_bt.hardware.recording.RecordingError`
+    for an unreadable or empty recording and :class:`ReplayError` for an unusable calibration
+    or speed.
     """
-    from tactile_bt.hardware.recording import read_recording
+    from tactile_bt.hardware.recording import RecordingError, RecordingWarning, read_recording, torn_tail_message
     from tactile_bt.loader import load_tree
-    from tactile_bt.mission import ControlLoop, MissionLog, MissionResult, calibration_path
+    from tactile_bt.mission import ControlLoop, MissionLog, MissionResult, _failure_reason, calibration_path
     from tactile_bt.metrics import controlled_feature_metrics
 
+    if speed is not None and not (math.isfinite(speed) and speed > 0):
+        raise ReplayError(f"speed must be a finite number > 0 or None, got {speed}")
     if not isinstance(tree, py_trees.trees.BehaviourTree):
         tree = load_tree(tree)
+    if out is not None:  # before the replay: a path that cannot be written loses nothing
+        from tactile_bt.report import prepare_output_dir
+
+        prepare_output_dir(out)
     rec = read_recording(recording)
     n = len(rec.timestamps)
     if n == 0:
-        raise ValueError(f"{recording}: the recording holds no complete chunk")
+        torn = "" if rec.torn_tail_offset is None else f" (the chunk at byte {rec.torn_tail_offset} is torn)"
+        raise RecordingError(f"{recording}: the recording holds no complete chunk{torn}")
+    notes = []
+    if rec.torn_tail_offset is not None:
+        notes.append(torn_tail_message(recording, rec.torn_tail_offset, n))
+    source = calibration
     if calibration is None:
-        side = calibration_path(recording)
-        calibration = TactelCalibration.load(side) if side.exists() else TactelCalibration.nominal(*rec.values.shape[1:])
-    elif not isinstance(calibration, TactelCalibration):
-        calibration = TactelCalibration.load(calibration)
+        source = calibration_path(recording)
+        if not source.exists():
+            notes.append(f"{source} is missing: using the nominal tactel characteristic "
+                         f"(--calibration FILE chooses one)")
+            calibration = TactelCalibration.nominal(*rec.values.shape[1:])
+    if not isinstance(calibration, TactelCalibration):
+        try:
+            calibration = TactelCalibration.load(source)
+        except ValueError as exc:
+            raise ReplayError(str(exc)) from exc
+    if calibration.offset.shape != rec.values.shape[1:]:
+        name = "the calibration" if isinstance(source, TactelCalibration) else f"calibration {source}"
+        raise ReplayError(f"{name} holds {'x'.join(map(str, calibration.offset.shape))} tactels, "
+                          f"the recording {recording} {rec.rows}x{rec.cols}")
+    for note in notes:
+        warnings.warn(RecordingWarning(note), stacklevel=2)
     t = rec.timestamps - rec.timestamps[0]
     if "rate_hz" in rec.metadata:  # a mission recording: its exact control period
         dt = 1.0 / float(rec.metadata["rate_hz"])
@@ -59,7 +94,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         dt = float(np.median(np.diff(t))) if n > 1 else 1.0 / defaults.RATE_HZ
     loop = ControlLoop(tree, calibration, dt, orientation_method)
     log = MissionLog(n)
-    status, wall_start = "completed", time.perf_counter()
+    status, reason, wall_start = "completed", "", time.perf_counter()
     try:
         for k in range(n):
             if speed is not None:
@@ -71,6 +106,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
             log.record(k, float(t[k]), loop, twist, pose)
             if tree.root.status in (Status.SUCCESS, Status.FAILURE):
                 status = tree.root.status.value.lower()
+                reason = _failure_reason(tree.root) if tree.root.status == Status.FAILURE else ""
                 break
     finally:
         tree.interrupt()
@@ -83,7 +119,8 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         "scene": rec.metadata.get("scene", ""),
         "seed": rec.metadata.get("seed"),
         "status": status,
-        "reason": "",
+        "reason": reason,
+        "warnings": notes,
         "sim_time_s": float(t[log.n - 1]) + dt,
         "wall_time_s": wall,
         "real_time_factor": (float(t[log.n - 1]) + dt) / wall if wall > 0 else float("inf"),

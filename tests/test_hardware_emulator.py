@@ -132,6 +132,32 @@ def test_fault_spec_parsing():
         FaultConfig.parse("lightning=1")
     with pytest.raises(ValueError, match="name=number"):
         FaultConfig.parse("tear=often")
+    assert FaultConfig.parse("garbage_max=9.0").garbage_max == 9
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("garbage=2", r"garbage=2: a probability must lie in 0\.\.1"),
+    ("tear=-0.1", r"tear=-0.1: a probability"),
+    ("pause=nan", r"pause=nan: a probability"),
+    ("bitflip=inf", r"bitflip=inf: a probability"),
+    ("all=0.5", r"bitflip=0.5 \+ tear=0.5 \+ header=0.5 = 1.5 exceed 1"),
+    ("garbage_max=0", r"garbage_max=0: expected an integer"),
+    ("garbage_max=2.5", r"garbage_max=2.5: expected an integer"),
+    ("garbage_max=1e9", r"garbage_max=1000000000: expected an integer"),
+    ("pause_s=-1", r"pause_s=-1.0: expected a finite number"),
+    ("pause_s=inf", r"pause_s=inf: expected a finite number"),
+    ("tear", r"'tear': expected name=number"),
+    ("tear=", r"'tear=': expected name=number"),
+    ("=0.1", r"unknown fault ''"),
+])
+def test_fault_spec_out_of_range_is_rejected(spec, message):
+    with pytest.raises(ValueError, match=message):
+        FaultConfig.parse(spec)
+
+
+def test_fault_config_checks_direct_construction():
+    with pytest.raises(ValueError, match="garbage=1.5"):
+        FaultConfig(garbage=1.5)
 
 
 def test_fault_injection_ground_truth_matches_the_raw_byte_stream():

@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -14,7 +15,14 @@ import pytest
 from tactile_bt.hardware.cli import main as cli_main
 from tactile_bt.hardware.emulator import DeviceEmulator, synthetic_source
 from tactile_bt.hardware.protocol import TactileFrame
-from tactile_bt.hardware.recording import Recorder, RecordingError, iter_chunks, read_recording, replay
+from tactile_bt.hardware.recording import (
+    Recorder,
+    RecordingError,
+    RecordingWarning,
+    iter_chunks,
+    read_recording,
+    replay,
+)
 
 
 def make_recording(path, n=50, chunk_frames=8, poses=True) -> np.ndarray:
@@ -71,9 +79,17 @@ def test_torn_tail_at_every_offset_keeps_every_complete_chunk(tmp_path):
         rec = read_recording(cut_path)
         complete = sum(1 for o in offsets[1:] + [len(data)] if o <= cut)
         n = [8, 16, 20][complete - 1]
+        end = [*offsets[1:], len(data)][complete - 1]
         np.testing.assert_array_equal(rec.values, values[:n])
-        assert rec.torn_tail_bytes == cut - ([*offsets[1:], len(data)][complete - 1])
-        assert len(list(replay(cut_path))) == n
+        assert rec.torn_tail_bytes == cut - end
+        assert rec.torn_tail_offset == (end if cut > end else None)
+        if cut > end:
+            with pytest.warns(RecordingWarning, match=f"torn chunk at byte {end}; replaying the {n} complete frames"):
+                assert len(list(replay(cut_path))) == n
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                assert len(list(replay(cut_path))) == n
 
 
 def test_corrupted_header_and_chunk_name_file_and_offset(tmp_path):
@@ -127,7 +143,7 @@ def test_cli_replay_reports_and_fails_cleanly(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "replayed 10 frames" in out and out.count("t=") == 10
     (tmp_path / "junk.tbr").write_bytes(b"not a recording")
-    assert cli_main(["sensor", "replay", str(tmp_path / "junk.tbr")]) == 1
+    assert cli_main(["sensor", "replay", str(tmp_path / "junk.tbr")]) == 2
     assert "byte offset 0" in capsys.readouterr().err
 
 

@@ -5,7 +5,8 @@ Public names (imported lazily, so ``import tactile_bt.hardware`` stays cheap)::
     SerialTactileSensor, TactileFrame, SensorStats, SensorError, SensorConnectionError,
     SensorDisconnectedError                                    (driver, protocol)
     DeviceEmulator, FaultConfig                                (emulator)
-    Recorder, read_recording, replay, RecordingError           (recording)
+    Recorder, read_recording, replay, RecordingError,
+    RecordingWarning                                           (recording)
 
 Raw counts only: converting counts to newtons is :mod:`tactile_bt.calibration`'s job.
 See ``docs/hardware.md`` for the protocol subset, connecting a sensor and the file format.
@@ -28,6 +29,7 @@ _EXPORTS = {
     "Recorder": "recording",
     "Recording": "recording",
     "RecordingError": "recording",
+    "RecordingWarning": "recording",
     "read_recording": "recording",
     "iter_chunks": "recording",
     "replay": "recording",

@@ -23,6 +23,8 @@ stalled for 0.5 s tears frames wherever it stops).
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -40,6 +42,9 @@ __all__ = [
     "garbage_burst",
 ]
 
+#: Largest garbage burst (bytes) a fault configuration may ask for.
+GARBAGE_MAX_LIMIT = 65536
+_PROBABILITIES = ("garbage", "bitflip", "tear", "pause", "header")
 _GARBAGE_ALPHABET = np.array([b for b in range(256) if b != HDR1], dtype=np.uint8)
 
 
@@ -61,28 +66,53 @@ class FaultConfig:
     garbage_max: int = 64
     pause_s: float = 0.01
 
+    def __post_init__(self) -> None:
+        self.check()
+
+    def check(self) -> None:
+        """Raise ValueError naming the field unless the probabilities lie in 0..1 (bitflip, tear
+        and header together at most 1: at most one of them per frame), ``garbage_max`` is an
+        integer from 1 to ``GARBAGE_MAX_LIMIT`` and ``pause_s`` a finite number >= 0."""
+        for name in _PROBABILITIES:
+            p = getattr(self, name)
+            if not (isinstance(p, numbers.Real) and 0.0 <= p <= 1.0):
+                raise ValueError(f"fault {name}={p:g}: a probability must lie in 0..1"
+                                 if isinstance(p, numbers.Real) else f"fault {name}={p!r}: not a number")
+        exclusive = self.bitflip + self.tear + self.header
+        if exclusive > 1.0:
+            raise ValueError(f"faults bitflip={self.bitflip:g} + tear={self.tear:g} + header={self.header:g} = "
+                             f"{exclusive:g} exceed 1 (at most one of them per frame)")
+        g = self.garbage_max
+        if isinstance(g, bool) or not isinstance(g, numbers.Integral) or not 1 <= g <= GARBAGE_MAX_LIMIT:
+            raise ValueError(f"fault garbage_max={g!r}: expected an integer from 1 to {GARBAGE_MAX_LIMIT}")
+        if not (isinstance(self.pause_s, numbers.Real) and math.isfinite(self.pause_s) and self.pause_s >= 0):
+            raise ValueError(f"fault pause_s={self.pause_s}: expected a finite number of seconds >= 0")
+
     @classmethod
     def parse(cls, spec: str | None) -> "FaultConfig":
         """Parse ``"garbage=0.01,bitflip=0.01,tear=0.01,pause=0.001,header=0.05"``.
 
-        ``all=P`` sets the five probabilities at once.
+        ``all=P`` sets the five probabilities at once.  Raises ValueError naming the item on an
+        unknown name, a malformed number or a value out of range (see :meth:`check`).
         """
         cfg = cls()
-        names = {f.name: f.type for f in fields(cls)}
+        names = [f.name for f in fields(cls)]
         for item in filter(None, (s.strip() for s in (spec or "").split(","))):
-            key, _, value = item.partition("=")
+            key, sep, value = item.partition("=")
             key = key.strip()
+            if key != "all" and key not in names:
+                raise ValueError(f"unknown fault {key!r} in {item!r}; known: all, {', '.join(names)}")
             try:
-                number = float(value)
+                number = float(value) if sep else None
             except ValueError:
-                raise ValueError(f"fault spec {item!r}: expected name=number") from None
-            if key == "all":
-                for name in ("garbage", "bitflip", "tear", "pause", "header"):
-                    setattr(cfg, name, number)
-            elif key in names:
-                setattr(cfg, key, int(number) if key == "garbage_max" else number)
-            else:
-                raise ValueError(f"unknown fault {key!r}; known: all, {', '.join(names)}")
+                number = None
+            if number is None:
+                raise ValueError(f"fault spec {item!r}: expected name=number")
+            if key == "garbage_max" and number.is_integer():
+                number = int(number)
+            for name in _PROBABILITIES if key == "all" else (key,):
+                setattr(cfg, name, number)
+        cfg.check()
         return cfg
 
 

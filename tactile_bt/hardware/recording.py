@@ -11,7 +11,8 @@ File layout (all integers little-endian; the full table is in ``docs/hardware.md
 The recorder writes the header at once and each chunk with a single ``write`` followed by a
 flush, never a blob at the end: a recorder killed at any moment (even SIGKILL) leaves a file
 whose complete chunks all read back; only the torn last chunk is lost.  Readers tolerate a
-torn tail and raise :class:`RecordingError` naming the file and byte offset on corruption.
+torn tail (:func:`replay` warns about it with a :class:`RecordingWarning`) and raise
+:class:`RecordingError` naming the file and byte offset on corruption.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import json
 import os
 import struct
 import time
+import warnings
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +42,16 @@ _CHUNK = struct.Struct("<4sIII")
 
 class RecordingError(ValueError):
     """A recording file is not readable; the message names the file and the byte offset."""
+
+
+class RecordingWarning(UserWarning):
+    """A recording replays, but not as it was made: a torn tail, a missing calibration file."""
+
+
+def torn_tail_message(path: str | Path, offset: int, frames: int) -> str:
+    """The warning about a recording whose last chunk is torn at byte ``offset``."""
+    return (f"{path}: the recording ends in a torn chunk at byte {offset}; "
+            f"replaying the {frames} complete frames")
 
 
 def _pose_matrix(pose: Any) -> np.ndarray:
@@ -176,7 +188,8 @@ class Recording:
     """A whole recording in memory; unpacks as ``values, timestamps, poses = recording``.
 
     ``values`` (N, rows, cols) uint16 raw counts, ``timestamps`` (N,) s, ``poses`` (N, 4, 4)
-    (NaN where none was given), ``torn_tail_bytes`` the bytes of an incomplete last chunk.
+    (NaN where none was given), ``torn_tail_bytes`` the bytes of an incomplete last chunk and
+    ``torn_tail_offset`` its byte offset (None when the file ends with a complete chunk).
     """
 
     path: Path
@@ -190,6 +203,7 @@ class Recording:
     sensor_ids: np.ndarray
     chunks: int = 0
     torn_tail_bytes: int = 0
+    torn_tail_offset: int | None = None
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.timestamps, self.poses))
@@ -227,8 +241,9 @@ def read_header(path: str | Path) -> tuple[int, int, dict, int]:
 def iter_chunks(path: str | Path, strict: bool = True, _tail: list | None = None) -> Iterator[RecordingChunk]:
     """Yield the complete chunks of a recording in order, lazily.
 
-    A torn last chunk is skipped silently.  A corrupted chunk raises :class:`RecordingError`
-    naming the byte offset, or with ``strict=False`` ends the iteration there.
+    A torn last chunk is skipped silently (``_tail`` receives ``(offset, bytes)`` of what
+    was not read).  A corrupted chunk raises :class:`RecordingError` naming the byte offset,
+    or with ``strict=False`` ends the iteration there.
     """
     path = Path(path)
     rows, cols, _meta, off = read_header(path)
@@ -259,7 +274,7 @@ def iter_chunks(path: str | Path, strict: bool = True, _tail: list | None = None
             yield _unpack(off, payload, n, rows, cols)
             off += _CHUNK.size + length
     if _tail is not None:
-        _tail.append(size - off)
+        _tail.append((off, size - off))
 
 
 def _unpack(off: int, payload: bytes, n: int, rows: int, cols: int) -> RecordingChunk:
@@ -279,8 +294,9 @@ def read_recording(path: str | Path, strict: bool = True) -> Recording:
     """Read a whole recording; a torn last chunk is left out (see ``torn_tail_bytes``)."""
     path = Path(path)
     rows, cols, meta, _off = read_header(path)
-    tail: list[int] = []
+    tail: list[tuple[int, int]] = []
     chunks = list(iter_chunks(path, strict=strict, _tail=tail))
+    torn_at, torn_bytes = tail[0] if tail and tail[0][1] > 0 else (None, 0)
 
     def cat(name: str, shape: tuple, dtype: Any) -> np.ndarray:
         parts = [getattr(c, name) for c in chunks]
@@ -290,7 +306,8 @@ def read_recording(path: str | Path, strict: bool = True) -> Recording:
         path=path, rows=rows, cols=cols, metadata=meta,
         values=cat("values", (rows, cols), np.uint16), timestamps=cat("timestamps", (), float),
         poses=cat("poses", (4, 4), float), device_timestamps=cat("device_timestamps", (), np.uint32),
-        sensor_ids=cat("sensor_ids", (), np.uint8), chunks=len(chunks), torn_tail_bytes=tail[0] if tail else 0,
+        sensor_ids=cat("sensor_ids", (), np.uint8), chunks=len(chunks), torn_tail_bytes=torn_bytes,
+        torn_tail_offset=torn_at,
     )
 
 
@@ -305,11 +322,17 @@ def replay(path: str | Path, speed: float | None = None, *, with_poses: bool = F
         recorded rate (1.0 = recorded speed).  The frames are identical either way.
     with_poses
         Yield ``(frame, pose)`` with the (4, 4) pose (NaN if none was recorded).
+
+    A torn last chunk ends the replay with a :class:`RecordingWarning` after the last complete
+    frame.
     """
-    if speed is not None and not speed > 0:
-        raise ValueError(f"speed must be positive or None, got {speed}")
+    if speed is not None and not (np.isfinite(speed) and speed > 0):
+        raise ValueError(f"speed must be a finite number > 0 or None, got {speed}")
     t0 = w0 = None
-    for chunk in iter_chunks(path, strict=strict):
+    tail: list[tuple[int, int]] = []
+    frames = 0
+    for chunk in iter_chunks(path, strict=strict, _tail=tail):
+        frames += len(chunk.timestamps)
         for k in range(len(chunk.timestamps)):
             t = float(chunk.timestamps[k])
             if speed is not None:
@@ -321,3 +344,5 @@ def replay(path: str | Path, speed: float | None = None, *, with_poses: bool = F
                         time.sleep(delay)
             frame = TactileFrame(chunk.values[k], t, int(chunk.sensor_ids[k]), int(chunk.device_timestamps[k]))
             yield (frame, chunk.poses[k]) if with_poses else frame
+    if strict and tail and tail[0][1] > 0:
+        warnings.warn(RecordingWarning(torn_tail_message(path, tail[0][0], frames)), stacklevel=2)

@@ -112,11 +112,14 @@ def run_soak(seconds: float, rate_hz: float = MAX_SENSOR_RATE_HZ, faults: str | 
 def main(argv: list[str] | None = None) -> int:
     """Command line entry point; returns the exit code."""
     ap = argparse.ArgumentParser(prog="python -m tactile_bt.hardware.soak", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seconds", type=float, default=10.0, help="duration of each phase in s (default 10)")
-    ap.add_argument("--rate", type=float, default=MAX_SENSOR_RATE_HZ, help="frame rate in Hz (default 1900)")
-    ap.add_argument("--faults", default=DEFAULT_FAULTS, help=f"faulted phase spec (default {DEFAULT_FAULTS!r})")
+    from tactile_bt.hardware.options import device_rate, fault_spec, nonnegative_int, positive_float
+
+    ap.add_argument("--seconds", type=positive_float, default=10.0, help="duration of each phase in s (default 10)")
+    ap.add_argument("--rate", type=device_rate, default=MAX_SENSOR_RATE_HZ, help="frame rate in Hz (default 1900)")
+    ap.add_argument("--faults", type=fault_spec, default=DEFAULT_FAULTS,
+                    help=f"faulted phase spec (default {DEFAULT_FAULTS!r})")
     ap.add_argument("--no-faults", action="store_true", help="run the clean phase only")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=nonnegative_int, default=0)
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
     phases = [("clean", None)] + ([] if args.no_faults else [("faulted", args.faults)])
