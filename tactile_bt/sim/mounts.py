@@ -28,20 +28,34 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tactile_bt.sim.schema import COORD, NUMBER, STR, ListOf, Range
 from tactile_bt.spatial import integrate_spatial, make_pose
 
-__all__ = ["MountSpec", "CartesianMount", "ArmMount", "MOUNT_FIELDS", "MOUNT_TYPES"]
+__all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_FIELDS", "MOUNT_TYPES"]
 
 MOUNT_TYPES = ("cartesian", "lwr4")
-#: Field → kind, for the scene validation in :mod:`tactile_bt.sim.scene`.
+#: Field → kind, for the scene validation in :mod:`tactile_bt.sim.scene`. The joint stiffness
+#: and damping bounds are far beyond the LWR 4's (a few thousand N m/rad); they only keep the
+#: arm's contact solve away from overflows.
 MOUNT_FIELDS = {
-    "type": "string",
-    "position": "list of 3 numbers",
-    "rpy_deg": "list of 3 numbers",
-    "base": "list of 3 numbers",
-    "stiffness": "positive number",
-    "damping": "non-negative number",
+    "type": STR,
+    "position": ListOf(3, COORD),
+    "rpy_deg": ListOf(3, NUMBER),
+    "base": ListOf(3, COORD),
+    "stiffness": Range(0.0, 1e8, lo_open=True, unit="N m/rad"),
+    "damping": Range(0.0, 1e6, unit="N m s/rad"),
 }
+
+
+class MountError(ValueError):
+    """The mount cannot be built as specified (the arm cannot reach the start pose).
+
+    ``field`` names the ``mount.`` field most likely to blame (``base`` or ``rpy_deg``).
+    """
+
+    def __init__(self, message: str, field: str = "") -> None:
+        super().__init__(message)
+        self.field = field
 
 
 class CartesianMount:
@@ -89,7 +103,7 @@ class ArmMount:
         try:
             q0 = kin.ik_pose(np.asarray(pose, dtype=float), q0=Q_READY)
         except ValueError as exc:
-            raise ValueError(f"mount: the arm cannot reach the start pose: {exc}") from None
+            raise MountError(f"mount: the arm cannot reach the start pose: {exc}") from None
         # tol: joint-torque residual of the contact solve, 1e-3 N m ≈ a few µm at the pad.
         self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping, tol=1e-3)
 
@@ -129,6 +143,36 @@ class MountSpec:
         self.pose = make_pose(Rotation.from_euler("xyz", self.rpy_deg, degrees=True), self.position)
 
     def build(self):
+        """A fresh mount at the start pose.
+
+        Raises
+        ------
+        MountError
+            When the arm cannot reach the start pose; the message gives the pose, the base and
+            the fields to change.
+        """
         if self.type == "lwr4":
-            return ArmMount(self.pose, self.base, self.stiffness, self.damping)
+            try:
+                return ArmMount(self.pose, self.base, self.stiffness, self.damping)
+            except MountError as exc:
+                raise self._unreachable(exc) from None
         return CartesianMount(self.pose)
+
+    def _unreachable(self, exc: MountError) -> MountError:
+        from tactile_bt.sim.kinematics import Q_READY, LWR4Kinematics
+
+        base = np.asarray(self.pose[:3, 3]) - LWR4Kinematics().fk(Q_READY)[:3, 3] if self.base is None else self.base
+        reason = str(exc).split(": ", 2)[-1]
+        where_ = (f"the arm cannot reach the start pose (mount.position {_fmt(self.position)} m, "
+                  f"mount.rpy_deg {_fmt(self.rpy_deg)}) from its base at {_fmt(base)} m, "
+                  f"{np.linalg.norm(np.subtract(self.position, base)):.3g} m away ({reason})")
+        if self.base is not None:
+            return MountError(f"mount.base: {where_}; move mount.base within reach of mount.position, or leave "
+                              f"mount.base out to place the arm so that the start pose is its ready posture",
+                              "base")
+        return MountError(f"mount.rpy_deg: {where_}; change mount.rpy_deg ([180, 0, yaw] points the pad down)",
+                          "rpy_deg")
+
+
+def _fmt(v) -> str:
+    return "[" + ", ".join(f"{float(x):.4g}" for x in v) + "]"

@@ -276,8 +276,9 @@ class Cable(SimObject):
         self.path = np.ascontiguousarray(self.path, dtype=float)
         if self.path.ndim != 2 or self.path.shape[1] != 2 or len(self.path) < 2:
             raise ValueError("cable path must be an (N, 2) array with N >= 2")
-        # Points outside the grid read its border, at least ``margin`` from the path: no contact.
-        margin = 0.01 + 2 * self.grid_cell
+        # Points outside the grid read its border, at least ``margin`` from the path: no contact,
+        # as long as the margin exceeds the radius (a thick cable widens the grid).
+        margin = max(0.01, self.radius + 0.005) + 2 * self.grid_cell
         self._grid, self._origin, self.length = _lateral_distance_grid(
             self.path.tobytes(), len(self.path), self.grid_cell, margin
         )

@@ -1,9 +1,13 @@
 """Scene files: YAML → validated :class:`Scene` → :class:`~tactile_bt.sim.world.World`.
 
 A scene lists the pad's sensor parameters, its mount and the objects; every key is checked
-against the schema below, and errors name the file, the line and the field. ``--set`` style
-overrides (``objects.1.stiffness=1e5``) go through the same checks. The schema, with units and
-defaults, is documented in ``sim/README.md``.
+against the schema below (kinds from :mod:`tactile_bt.sim.schema`: finite numbers within
+bounds, integers, fixed-length lists), and errors name the file, the line and the field.
+``--set`` style overrides (``objects.1.stiffness=1e5``) go through the same checks. Loading
+then checks the start: the arm reaches the start pose, and the pad starts at most
+:data:`MAX_START_DEPTH_M` inside any object. Every error is a :class:`SceneError` (the
+:class:`~tactile_bt.yamlutil.YamlError` the command line reports in one line). The schema, with
+units, bounds and defaults, is documented in ``sim/README.md``.
 """
 
 from __future__ import annotations
@@ -21,101 +25,126 @@ from tactile_bt.sim.events import EventSchedule, ObjectEvent
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.sensor import SensorModel, SensorParams
-from tactile_bt.sim.mounts import MOUNT_FIELDS, MountSpec
+from tactile_bt.sim.mounts import MOUNT_FIELDS, MountError, MountSpec
+from tactile_bt.sim.schema import (COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, NUMBER, POSITIVE, STR, ListOf,
+                                   Range)
 from tactile_bt.sim.world import World
 from tactile_bt.yamlutil import Located, YamlError, load_located, parse_value, plain
 
-__all__ = ["Scene", "load_scene", "apply_overrides", "SceneError"]
+__all__ = ["Scene", "load_scene", "apply_overrides", "SceneError", "check_seed"]
 
 SceneError = YamlError
 
-_NUMBER = "number"
-_POSITIVE = "positive number"
-_NONNEGATIVE = "non-negative number"
-_INT = "integer"
-_STR = "string"
+#: Control rates (Hz) a scene may ask for: from a slow but stable loop up to the pad's frame
+#: rate (``tactile-bt stability`` runs 100–1900 Hz).
+MIN_RATE_HZ = 50.0
+MAX_RATE_HZ = defaults.MAX_SENSOR_RATE_HZ
+#: Seeds are non-negative and fit in 64-bit signed integers (numpy arrays, logs).
+SEED = Range(0, 2**63 - 1, integer=True)
+#: Largest tactel grid side: a raw frame of ``2 · rows · cols`` bytes must fit the serial
+#: protocol's 16-bit length (``via_emulator`` missions).
+MAX_TACTELS_PER_SIDE = 128
+#: Deepest the pad may start inside an object (m), measured along its normal like the contact
+#: depth. A few millimetres of initial contact settle (``tactile-bt stability`` starts the pad
+#: 2 mm inside the rigid pen); more throws the pad out with tens of newtons on the first tick.
+MAX_START_DEPTH_M = 3.0e-3
+#: A cable's centreline fits in a square of this side (m); its distance grid covers it at 2 mm.
+MAX_CABLE_EXTENT_M = 1.0
+#: ... and is at most this long (m).
+MAX_CABLE_LENGTH_M = 10.0
 
 
-def _vec(n: int) -> str:
-    return f"list of {n} numbers"
+def check_seed(value: Any) -> int:
+    """``value`` as a seed (a non-negative integer that fits in 64 bits), else ValueError."""
+    if isinstance(value, np.integer):
+        value = int(value)
+    if not SEED.accepts(value):
+        raise ValueError(f"expected a seed, {SEED}, got {value!r}")
+    return value
 
 
-#: Top-level keys of a scene and their types.
+#: Top-level keys of a scene and their kinds.
 TOP_LEVEL = {
-    "name": _STR,
-    "description": _STR,
-    "rate_hz": _POSITIVE,
-    "duration_s": _POSITIVE,
-    "seed": _INT,
-    "sensor": "mapping",
-    "mount": "mapping",
-    "objects": "list",
-    "events": "list",
-    "scan_region": "mapping",
+    "name": STR,
+    "description": STR,
+    "rate_hz": Range(MIN_RATE_HZ, MAX_RATE_HZ, unit="Hz"),
+    "duration_s": Range(0.0, lo_open=True, unit="s"),
+    "seed": SEED,
+    "sensor": MAPPING,
+    "mount": MAPPING,
+    "objects": LIST,
+    "events": LIST,
+    "scan_region": MAPPING,
 }
-SENSOR = {f.name: (_INT if f.type in ("int", int) else _NONNEGATIVE) for f in dataclasses.fields(SensorParams)}
-SENSOR.update(pitch=_POSITIVE, foam_stiffness=_POSITIVE)
+#: The ``sensor:`` section (one entry per :class:`SensorParams` field). Zero turns the spread
+#: and noise terms off; the upper bounds keep the pad model's arrays and noise meaningful.
+SENSOR = {
+    "rows": Range(1, MAX_TACTELS_PER_SIDE, integer=True),
+    "cols": Range(1, MAX_TACTELS_PER_SIDE, integer=True),
+    "pitch": Range(1e-4, 0.05, unit="m"),
+    "subsamples": Range(1, 10, integer=True),
+    "foam_stiffness": Range(0.0, lo_open=True, unit="Pa/m"),
+    "foam_spread": Range(0.0, 16.0, unit="tactels"),
+    "calibration_spread": Range(0.0, 1.0),
+    "noise_counts": Range(0.0, float(defaults.ADC_MAX), unit="counts"),
+    "noise_relative": Range(0.0, 1.0),
+    "noise_common": Range(0.0, 1.0),
+}
 MOUNT = MOUNT_FIELDS
 #: Fields every object has: its type, pose in the world and contact properties.
-_COMMON = {"type": _STR, "position": _vec(3), "rpy_deg": _vec(3), "stiffness": _POSITIVE,
-           "friction": _NONNEGATIVE}
+_COMMON = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, NUMBER),
+           "stiffness": Range(0.0, lo_open=True, unit="N/m"), "friction": NONNEGATIVE}
 OBJECTS = {
-    "table": {**_COMMON, "height": _NUMBER},
+    "table": {**_COMMON, "height": COORD},
     "cable": {
         **_COMMON,
-        "radius": _POSITIVE,
-        "table_height": _NUMBER,
-        "start": _vec(2),
-        "heading_deg": _NUMBER,
-        "path": "list",
-        "points": "list",
+        "radius": Range(0.0, 0.05, lo_open=True, unit="m"),
+        "table_height": COORD,
+        "start": ListOf(2, COORD),
+        "heading_deg": NUMBER,
+        "path": LIST,
+        "points": LIST,
     },
-    "box": {**_COMMON, "size": "list of 3 positive numbers"},
-    "sphere": {**_COMMON, "radius": _POSITIVE},
-    "cylinder": {**_COMMON, "radius": _POSITIVE, "length": _POSITIVE},
-    "mesh": {**_COMMON, "path": _STR, "scale": _POSITIVE, "resolution": _POSITIVE},
+    "box": {**_COMMON, "size": ListOf(3, LENGTH)},
+    "sphere": {**_COMMON, "radius": LENGTH},
+    "cylinder": {**_COMMON, "radius": LENGTH, "length": LENGTH},
+    "mesh": {**_COMMON, "path": STR, "scale": POSITIVE, "resolution": POSITIVE},
 }
 #: Fields an object type cannot do without.
 REQUIRED = {"box": ("size",), "sphere": ("radius",), "cylinder": ("radius", "length"), "mesh": ("path",)}
-EVENT = {"at_s": _NONNEGATIVE, "object": _INT, "translate": _vec(3), "rotate_deg": _vec(3)}
+#: A cable's path pieces.
+STRAIGHT = LENGTH
+ARC = {"radius": LENGTH, "angle_deg": NUMBER}
+EVENT = {"at_s": Range(0.0, unit="s"), "object": INT, "translate": ListOf(3, COORD),
+         "rotate_deg": ListOf(3, NUMBER)}
 
 
-def _check(value: Located, kind: str, field_name: str) -> Any:
+def _check(value: Located, kind: Any, field_name: str) -> Any:
+    """The value of ``value`` if it is of ``kind`` (see :mod:`tactile_bt.sim.schema`), else a
+    :class:`SceneError` naming the field, the file and the line."""
     v = value.value
-    if kind == _NUMBER:
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise value.error(f"{field_name}: expected a number, got {plain(v)!r}")
-        if not np.isfinite(v):
+    if isinstance(kind, Range):
+        if isinstance(v, float) and not np.isfinite(v):
             raise value.error(f"{field_name}: expected a finite number, got {v!r}")
-        return float(v)
-    if kind in (_POSITIVE, _NONNEGATIVE):
-        x = _check(value, _NUMBER, field_name)
-        if x < 0 or (kind == _POSITIVE and x == 0):
-            raise value.error(f"{field_name}: expected a {kind}, got {x!r}")
-        return x
-    if kind == _INT:
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise value.error(f"{field_name}: expected an integer, got {plain(v)!r}")
-        return v
-    if kind == _STR:
+        if not kind.accepts(v):
+            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
+        return int(v) if kind.integer else float(v)
+    if isinstance(kind, ListOf):
+        if not isinstance(v, list) or len(v) != kind.n:
+            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
+        return [_check(x, kind.item, f"{field_name}[{i}]") for i, x in enumerate(v)]
+    if kind == STR:
         if not isinstance(v, str):
             raise value.error(f"{field_name}: expected a string, got {plain(v)!r}")
         return v
-    if kind == "mapping":
+    if kind == MAPPING:
         if not isinstance(v, dict):
             raise value.error(f"{field_name}: expected a mapping")
         return v
-    if kind == "list":
+    if kind == LIST:
         if not isinstance(v, list):
             raise value.error(f"{field_name}: expected a list")
         return v
-    if kind.startswith("list of "):
-        n = int(kind.split()[2])
-        if not isinstance(v, list) or len(v) != n:
-            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
-        # "list of 3 numbers" → number, "list of 3 positive numbers" → positive number
-        item_kind = " ".join(kind.split()[3:])[:-1]
-        return [_check(x, item_kind, f"{field_name}[{i}]") for i, x in enumerate(v)]
     raise AssertionError(kind)
 
 
@@ -150,8 +179,15 @@ class Scene:
 
     def build_world(self, rng: np.random.Generator) -> World:
         """A fresh world (sensor characteristics drawn from ``rng``) with its own event schedule
-        (``World.update`` applies it to the world's list of objects, not to the scene's)."""
-        world = World(self.objects, SensorModel(self.sensor, rng), self.mount.build())
+        (``World.update`` applies it to the world's list of objects, not to the scene's).
+
+        Raises :class:`SceneError` naming the scene file when the arm cannot reach the start
+        pose (a scene built in code rather than loaded, which checks it on load)."""
+        try:
+            mount = self.mount.build()
+        except MountError as exc:
+            raise SceneError(str(exc), self.file) from None
+        world = World(self.objects, SensorModel(self.sensor, rng), mount)
         world.events = EventSchedule(self.events)
         return world
 
@@ -170,7 +206,7 @@ def _build_object(item: Located, index: int, scene_file: str = "") -> Any:
     where_ = f"objects.{index}."
     if not isinstance(item.value, dict) or "type" not in item.value:
         raise item.error(f"objects.{index}: an object needs a 'type' ({', '.join(OBJECTS)})")
-    kind = _check(item.value["type"], _STR, where_ + "type")
+    kind = _check(item.value["type"], STR, where_ + "type")
     if kind not in OBJECTS:
         from difflib import get_close_matches
 
@@ -194,27 +230,50 @@ def _build_object(item: Located, index: int, scene_file: str = "") -> Any:
         return Cylinder(**f)
     if kind == "mesh":
         return _build_mesh(item, f, where_, scene_file)
+    field_name = where_ + ("points" if "points" in f else "path")
+    located = item.value.get("points" if "points" in f else "path", item)
     if "points" in f:
-        pts = np.array([_check(p, _vec(2), f"{where_}points[{i}]") for i, p in enumerate(f.pop("points"))])
+        pts = np.array([_check(p, ListOf(2, COORD), f"{where_}points[{i}]") for i, p in enumerate(f.pop("points"))])
         f.pop("path", None)
+        if len(pts) < 2:
+            raise located.error(f"{where_}points: a cable needs at least 2 points, got {len(pts)}")
     else:
         if "path" not in f:
             raise item.error(f"{where_}: a cable needs 'path' (segments) or 'points'")
-        segments = []
-        for i, seg in enumerate(f.pop("path")):
-            s = plain(seg)
-            ok = isinstance(s, dict) and len(s) == 1 and (
-                ("straight" in s and isinstance(s["straight"], (int, float)))
-                or ("arc" in s and isinstance(s["arc"], dict) and set(s["arc"]) == {"radius", "angle_deg"})
-            )
-            if not ok:
-                raise seg.error(f"{where_}path[{i}]: expected {{straight: length_m}} or "
-                                f"{{arc: {{radius: m, angle_deg: deg}}}}, got {s!r}")
-            segments.append(s)
+        segments = [_path_segment(seg, f"{where_}path[{i}]") for i, seg in enumerate(f.pop("path"))]
+        if not segments:
+            raise located.error(f"{where_}path: a cable needs at least one piece")
+        length = sum(s["straight"] if "straight" in s else abs(np.deg2rad(s["arc"]["angle_deg"])) * s["arc"]["radius"]
+                     for s in segments)
+        if length > MAX_CABLE_LENGTH_M:
+            raise located.error(f"{where_}path: the cable is {length:.3g} m long, more than the "
+                                f"{MAX_CABLE_LENGTH_M:g} m allowed")
         pts = polyline_from_segments(f.pop("start", (0.0, 0.0)), f.pop("heading_deg", 0.0), segments)
     f.pop("start", None)
     f.pop("heading_deg", None)
+    extent = float(np.ptp(pts, axis=0).max())
+    if extent > MAX_CABLE_EXTENT_M:
+        raise located.error(f"{field_name}: the cable's centreline spans {extent:.3g} m, more than the "
+                            f"{MAX_CABLE_EXTENT_M:g} m allowed")
+    if float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) < 1e-3:
+        raise located.error(f"{field_name}: the cable's centreline must be at least 1 mm long")
     return Cable(path=pts, **f)
+
+
+def _path_segment(seg: Located, field_name: str) -> dict:
+    """One piece of a cable path, ``{straight: length}`` or ``{arc: {radius, angle_deg}}``, checked."""
+    v = seg.value
+    ok = isinstance(v, dict) and len(v) == 1 and (
+        "straight" in v
+        or ("arc" in v and isinstance(v["arc"].value, dict) and set(v["arc"].value) == set(ARC))
+    )
+    if not ok:
+        raise seg.error(f"{field_name}: expected {{straight: length_m}} or "
+                        f"{{arc: {{radius: m, angle_deg: deg}}}}, got {plain(seg)!r}")
+    if "straight" in v:
+        return {"straight": _check(v["straight"], STRAIGHT, f"{field_name}.straight")}
+    arc = v["arc"].value
+    return {"arc": {k: _check(arc[k], kind, f"{field_name}.arc.{k}") for k, kind in ARC.items()}}
 
 
 def _build_mesh(item: Located, f: dict, where_: str, scene_file: str):
@@ -245,8 +304,8 @@ def _build_event(item: Located, index: int, n_objects: int) -> ObjectEvent:
         if name not in f:
             raise item.error(f"{where_}{name}: an event needs '{name}'")
     if not 0 <= f["object"] < n_objects:
-        raise item.value["object"].error(f"{where_}object: no object {f['object']} in this scene "
-                                         f"(valid: 0 to {n_objects - 1})")
+        valid = f"valid: 0 to {n_objects - 1}" if n_objects else "it has no objects"
+        raise item.value["object"].error(f"{where_}object: no object {f['object']} in this scene ({valid})")
     if "translate" not in f and "rotate_deg" not in f:
         raise item.error(f"{where_}: an event needs 'translate' or 'rotate_deg'")
     return ObjectEvent(at_s=f["at_s"], object=f["object"], translate=tuple(f.get("translate", (0.0, 0.0, 0.0))),
@@ -262,14 +321,13 @@ def build_scene(root: Located) -> Scene:
     scene.rate_hz = top.get("rate_hz", defaults.RATE_HZ)
     scene.duration_s = top.get("duration_s", 20.0)
     scene.seed = top.get("seed", 0)
-    if scene.rate_hz <= 0 or scene.duration_s <= 0:
-        raise root.error("rate_hz and duration_s must be positive")
     if "sensor" in top:
         scene.sensor = SensorParams(**_fields(root.value["sensor"], SENSOR, "sensor."))
     if "mount" in top:
         section = root.value["mount"]
+        fields = _fields(section, MOUNT, "mount.")
         try:
-            scene.mount = MountSpec(**_fields(section, MOUNT, "mount."))
+            scene.mount = MountSpec(**fields)
         except ValueError as exc:
             where_ = section.value.get("type", section)
             raise where_.error(str(exc)) from None
@@ -282,7 +340,50 @@ def build_scene(root: Located) -> Scene:
         except ValueError as exc:
             raise root.value["scan_region"].error(str(exc)) from None
     scene.events = [_build_event(item, i, len(scene.objects)) for i, item in enumerate(top.get("events", []))]
+    _check_start(root, scene)
     return scene
+
+
+def _check_start(root: Located, scene: Scene) -> None:
+    """The pad's start: the arm reaches it, and it is not deep inside an object.
+
+    Errors point at the ``mount`` field to change (or the object's position when the mount
+    section leaves the pad's position at its default).
+    """
+    mount = root.value.get("mount")
+    fields = mount.value if mount is not None and isinstance(mount.value, dict) else {}
+
+    def located(*names: str) -> Located:
+        for name in names:
+            if name in fields:
+                return fields[name]
+        return mount if mount is not None else root
+
+    def in_scene(loc: Located) -> str:  # an override's location does not name the scene file
+        return "" if loc.file == root.file else f" (scene {root.file})"
+
+    try:
+        scene.mount.build()
+    except MountError as exc:
+        loc = located(exc.field, "position")
+        raise loc.error(f"{exc}{in_scene(loc)}") from None
+    if not scene.objects:
+        return
+    # The nominal start pose: the arm's inverse kinematics reaches it to 0.1 µm.
+    depths = SensorModel(scene.sensor, np.random.default_rng(0)).penetration_by_object(scene.mount_pose, scene.objects)
+    index = int(np.argmax(depths))
+    if depths[index] <= MAX_START_DEPTH_M:
+        return
+    obj = root.value["objects"].value[index]
+    kind = obj.value["type"].value
+    if "position" in fields or "position" not in obj.value:
+        loc, blame = located("position"), "mount.position"
+    else:
+        loc, blame = obj.value["position"], f"objects.{index}.position"
+    moves = {"table": "height", "cable": "position, table_height"}.get(kind, "position")
+    raise loc.error(f"{blame}: the pad starts {depths[index] * 1e3:.3g} mm inside objects.{index} ({kind}){in_scene(loc)}, "
+                    f"more than the {MAX_START_DEPTH_M * 1e3:g} mm allowed; start it a few millimetres above the "
+                    f"object: move the pad (mount.position, mount.rpy_deg) or the object (objects.{index}.{moves})")
 
 
 def apply_overrides(root: Located, overrides: list[str]) -> Located:

@@ -184,6 +184,16 @@ class SensorModel:
         self._last_samples = samples
         return samples
 
+    def penetration_by_object(self, T_gs: np.ndarray, objects) -> np.ndarray:
+        """Deepest indentation (m) of the pad's sample points into each object, for the pad at
+        ``T_gs``: the depth :meth:`force_image` integrates, 0 for an object the pad does not
+        touch. Every sample of every tactel is tested (no broad phase, no cache): for checks
+        such as a scene's start pose, not for the control loop."""
+        R, t = T_gs[:3, :3], T_gs[:3, 3]
+        points = (self._centres[:, None, :] + self._offsets[None, :, :]).reshape(-1, 3) @ R.T + t
+        normal = R[:, 2]
+        return np.array([float(np.max(obj.depth(points, normal), initial=0.0)) for obj in objects])
+
     def force_image(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, float]:
         """Noise-free tactel forces (N) and the largest penetration (m) for the pad at ``T_gs``.
 
