@@ -292,12 +292,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from tactile_bt.behaviours.parameters import BlackboardReferenceError
+    from tactile_bt.mission import MissionLengthError
     from tactile_bt.report import OutputPathError
     from tactile_bt.yamlutil import YamlError
 
     try:
         return int(args.func(args) or 0)
-    except (YamlError, BlackboardReferenceError, CommandLineError, OutputPathError) as exc:
+    except (YamlError, BlackboardReferenceError, CommandLineError, OutputPathError, MissionLengthError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

@@ -49,6 +49,13 @@ def test_bad_option_values_end_with_one_error_line(argv, option, tmp_path, capsy
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("duration", ["1e-9", "1e7"])
+def test_a_budget_of_no_cycle_or_too_many_is_refused(duration, tmp_path, capsys):
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", duration, "--out", str(tmp_path / "out")]) == 2
+    _one_error_line(capsys.readouterr().err, "duration")
+    assert not (tmp_path / "out").exists()
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as stop:
         main(["--version"])
