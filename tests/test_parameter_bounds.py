@@ -350,3 +350,17 @@ def test_a_scene_file_that_is_not_utf8_is_a_one_line_error_too(tmp_path, capsys)
 def test_python_trees_get_no_blackboard_writer_by_accident():
     tree = load_tree(FILE, text="root:\n  force_hold:\n")
     assert isinstance(tree, py_trees.trees.BehaviourTree) and tree.blackboard_values == {}
+
+
+def test_a_python_leaf_with_unreadable_type_hints_still_builds():
+    from tactile_bt.behaviours import TactileBehaviour
+
+    class Odd(TactileBehaviour):
+        def __init__(self, name: str = "odd", level: "NotImportedHere" = 1.0) -> None:  # noqa: F821
+            super().__init__(name)
+            self.level = level
+
+        def update(self):
+            return py_trees.common.Status.RUNNING
+
+    assert Odd(level=-1.0).level == -1.0

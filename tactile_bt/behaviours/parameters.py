@@ -269,9 +269,14 @@ class BoundedParameters:
 
 @functools.lru_cache(maxsize=None)
 def _specs(cls) -> dict[str, tuple[Bound, str | None]]:
-    """Parameter → (bound, unit) of the numbers a class checks at construction."""
+    """Parameter → (bound, unit) of the numbers a class checks at construction (none when its
+    type hints cannot be read, e.g. names imported only for type checkers)."""
     out = {}
-    for p in parameters_of(cls):
+    try:
+        params = parameters_of(cls)
+    except Exception:  # noqa: BLE001 - a leaf written for Python only must still build
+        return out
+    for p in params:
         if p.bound is not None:
             out[p.name] = (p.bound, p.unit)
     return out
