@@ -55,7 +55,8 @@ def _cmd_run(args) -> int:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
                              orientation_method=args.orientation, via_emulator=args.via_emulator,
-                             record=args.record, reconstruct=args.reconstruct)
+                             record=args.record, reconstruct=args.reconstruct,
+                             params=args.param, blackboard=args.blackboard)
     finally:
         progress.close()
     r = result.report
@@ -104,10 +105,13 @@ def _cmd_replay(args) -> int:
 def _cmd_tree(args) -> int:
     import py_trees
 
-    from tactile_bt.loader import load_tree
+    from tactile_bt.loader import format_parameters, load_tree
 
-    tree = load_tree(args.tree)
+    _check_output_file(args.dot, "--dot")
+    tree = load_tree(args.tree, params=args.param)
     print(py_trees.display.unicode_tree(tree.root))
+    if args.params:
+        print(format_parameters(tree))
     if args.dot:
         dot = py_trees.display.dot_tree(tree.root)
         Path(args.dot).write_text(dot.to_string())
@@ -226,6 +230,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull", "none"),
                      help="reconstruct a surface from the contacts, or 'none' (default: as the tree's "
                           "record_contacts says)")
+    run.add_argument("--param", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                     help="set a tree parameter, e.g. force_hold.target_pa='1.5 kPa' (NODE: a node's name as "
+                          "'tactile-bt tree' shows it, or its type; repeatable)")
+    run.add_argument("--blackboard", action="append", default=[], metavar="KEY=VALUE",
+                     help="set a blackboard key the tree reads before it starts, e.g. /goal/pressure=1800 (repeatable)")
     run.add_argument("--out", required=True,
                      help="output directory; the outputs of an earlier run there are replaced")
     run.set_defaults(func=_cmd_run)
@@ -245,7 +254,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     tree = sub.add_parser("tree", help="validate and print a YAML tree")
     tree.add_argument("tree", help="YAML tree file")
-    tree.add_argument("--dot", default=None, help="also write a Graphviz dot file")
+    tree.add_argument("--dot", default=None, metavar="FILE", help="also write a Graphviz dot file")
+    tree.add_argument("--params", action="store_true",
+                      help="also print every node's parameters: values in SI units, units and where they come from")
+    tree.add_argument("--param", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                      help="set a parameter as 'run --param' does, to check it (repeatable)")
     tree.set_defaults(func=_cmd_tree)
 
     view = sub.add_parser("view", help="show a mission's contacts, path and scene in 3-D")

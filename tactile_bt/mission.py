@@ -137,12 +137,14 @@ def calibration_path(recording: str | Path) -> Path:
     return Path(f"{recording}.calibration.npz")
 
 
-def _resolve(tree, scene, overrides):
+def _resolve(tree, scene, overrides, params=None, blackboard=None):
     from tactile_bt.loader import load_tree
     from tactile_bt.sim.scene import Scene, load_scene
 
     if not isinstance(tree, py_trees.trees.BehaviourTree):
-        tree = load_tree(tree)
+        tree = load_tree(tree, params=params, blackboard=blackboard)
+    elif params or blackboard:
+        raise ValueError("params and blackboard apply to a tree file; set them on a BehaviourTree in Python")
     if not isinstance(scene, Scene):
         scene = load_scene(scene, list(overrides or ()))
     return tree, scene
@@ -247,6 +249,8 @@ def run_mission(
     record: str | Path | None = None,
     reconstruct: str | None = None,
     scan_region: dict | None = None,
+    params: list[str] | None = None,
+    blackboard: list[str] | None = None,
 ) -> MissionResult:
     """Run a tree against a simulated scene.
 
@@ -283,8 +287,14 @@ def run_mission(
         The part of the scene's object the scan sets out to cover, for the accuracy figures
         (:mod:`tactile_bt.scan_metrics`); defaults to the scene's ``scan_region``, else the
         whole object.
+    params : list of ``NODE.PARAM=VALUE``, optional
+        Tree parameters, as ``--param`` on the command line (see :func:`tactile_bt.loader.load_tree`);
+        only with a tree file.
+    blackboard : list of ``KEY=VALUE``, optional
+        Blackboard keys the tree reads, written before it starts, as ``--blackboard``; only with a
+        tree file.
     """
-    tree, scene = _resolve(tree, scene, overrides)
+    tree, scene = _resolve(tree, scene, overrides, params, blackboard)
     scan = _scan_settings(tree, scene, reconstruct, scan_region)
     duration = float(scene.duration_s if duration is None else duration)
     seed = int(scene.seed if seed is None else seed)

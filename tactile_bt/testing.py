@@ -45,6 +45,7 @@ __all__ = [
     "raw_frame",
     "FramePerception",
     "LeafHarness",
+    "UnknownNodeError",
     "fresh_blackboard",
 ]
 
@@ -155,14 +156,23 @@ class FramePerception:
         return f_raw, self.smoother(f_raw)
 
 
+class UnknownNodeError(KeyError):
+    """A node name that is not in the tree under test (the message lists the known names)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
 class LeafHarness:
     """Tick one behaviour (or a small tree) against fake features or scripted tactile frames and
     a fake mission clock.
 
     Parameters
     ----------
-    behaviour : py_trees.behaviour.Behaviour
-        The leaf (or subtree root) under test; ``setup()`` is called here.
+    behaviour : py_trees.behaviour.Behaviour or py_trees.trees.BehaviourTree
+        The leaf (or subtree root) under test, or a whole tree such as :func:`~tactile_bt.load_tree`
+        returns (its root is ticked; its ``setup()`` writes the tree's ``--blackboard`` values);
+        ``setup()`` is called here.
     dt : float
         Control period (s); the clock advances by ``dt`` after every tick.
     features : ContactFeatures, optional
@@ -177,7 +187,10 @@ class LeafHarness:
     def __init__(self, behaviour: py_trees.behaviour.Behaviour, dt: float = 1.0 / defaults.RATE_HZ,
                  features: ContactFeatures | None = None, pose: np.ndarray | None = None,
                  perception: FramePerception | None = None) -> None:
-        self.behaviour = behaviour
+        tree = behaviour if isinstance(behaviour, py_trees.trees.BehaviourTree) else None
+        #: The tree under test, when a BehaviourTree was given.
+        self.tree = tree
+        self.behaviour = tree.root if tree is not None else behaviour
         self.dt = float(dt)
         self.time = 0.0
         self.command = ServoCommand(np.inf, np.inf)
@@ -186,8 +199,11 @@ class LeafHarness:
         self._writer = cycle_writer("harness", self.command, self.contacts, self.dt, pose)
         self._extra: py_trees.blackboard.Client | None = None
         self.set_features(features if features is not None else make_features())
-        for node in behaviour.iterate():
-            node.setup()
+        if tree is not None:
+            tree.setup()
+        else:
+            for node in behaviour.iterate():
+                node.setup()
 
     # -- inputs ------------------------------------------------------------------------------
     @property
@@ -295,8 +311,18 @@ class LeafHarness:
         return self.command.twist()
 
     def twist_of(self, name: str | py_trees.behaviour.Behaviour) -> np.ndarray:
-        """The twist part one leaf (by name or object) added during the last tick (zeros if none)."""
+        """The twist part one leaf (by name or object) added during the last tick (zeros if it
+        added none). Raises :class:`UnknownNodeError` (a KeyError) for a name that no node of the
+        behaviour under test has, listing the names it has."""
         key = name if isinstance(name, str) else name.name
+        names = list(dict.fromkeys(node.name for node in _preorder(self.behaviour)))
+        if key not in names:
+            from difflib import get_close_matches
+
+            close = get_close_matches(str(key), names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise UnknownNodeError(f"no node named {key!r} in {self.behaviour.name!r}{hint}; "
+                                   f"known: {', '.join(names)}")
         part = self.command.parts.get(key)
         return np.zeros(6) if part is None else part
 
@@ -304,6 +330,13 @@ class LeafHarness:
     def errors(self) -> dict[str, float]:
         """Errors (measured − target, metric units) reported during the last tick."""
         return dict(self.command.errors)
+
+
+def _preorder(node: py_trees.behaviour.Behaviour) -> Iterator[py_trees.behaviour.Behaviour]:
+    """The nodes of a (sub)tree, parents before their children, as the tree display shows them."""
+    yield node
+    for child in node.children:
+        yield from _preorder(child)
 
 
 @contextlib.contextmanager

@@ -50,5 +50,8 @@ def _hint(name: str, options) -> str:
 
 
 def _origin(loc: Located) -> str:
-    """``file:line:column`` of a located value, for messages that point at a second place."""
+    """``file:line:column`` of a located value, for messages that point at a second place (just
+    the source, e.g. ``--param hold.target_pa``, for a value that has no line)."""
+    if loc.line is None:
+        return str(loc.file)
     return f"{loc.file}:{loc.line}:{loc.column}"

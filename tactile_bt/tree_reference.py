@@ -1,7 +1,7 @@
 """The node reference of docs/trees.md, generated from the node registry.
 
-:func:`describe_nodes` lists every YAML node type with its parameters, types, units, defaults
-and meanings, taken from :data:`tactile_bt.node_registry.COMPOSITES` and from the signatures and
+:func:`describe_nodes` lists every YAML node type with its parameters, types, units, ranges,
+defaults and meanings, taken from :data:`tactile_bt.node_registry.COMPOSITES` and from the signatures and
 docstrings of the behaviour classes; :func:`reference_markdown` renders that as Markdown tables
 and :func:`update_reference` rewrites the generated part of a Markdown file.  All of them are
 re-exported by :mod:`tactile_bt.loader`; regenerate the reference with
@@ -92,12 +92,14 @@ def reference_markdown() -> str:
                 continue
             module = doc.cls.__module__
             lines += [f"#### `{doc.type}`", "", f"{doc.summary} (`{module}.{doc.cls.__name__}`)", ""]
-            lines += ["| parameter | type | unit | default | meaning |", "|---|---|---|---|---|"]
+            lines += ["| parameter | type | unit | range | default | meaning |", "|---|---|---|---|---|---|"]
             for p in doc.parameters:
                 kind_name = p.annotation if isinstance(p.annotation, str) else describe_type(p.annotation)
                 kind_name = kind_name.replace(" | ", " \\| ")
                 meaning = p.doc.replace("|", "\\|")
-                lines.append(f"| `{p.name}` | {kind_name} | {p.unit or ''} | {_format_default(p.default)} | {meaning} |")
+                bound = str(p.bound) if p.bound is not None else ""
+                lines.append(f"| `{p.name}` | {kind_name} | {p.unit or ''} | {bound} | {_format_default(p.default)} "
+                             f"| {meaning} |")
             lines.append("")
     return "\n".join(lines).rstrip() + "\n"
 

@@ -9,7 +9,7 @@ import re
 
 import yaml
 
-__all__ = ["Located", "YamlError", "Loader", "load_located", "parse_value", "where"]
+__all__ = ["Located", "YamlError", "Loader", "load_located", "decode_utf8", "parse_value", "where"]
 
 
 class Loader(yaml.SafeLoader):
@@ -85,6 +85,28 @@ def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConst
     return Located(constructor.construct_object(node, deep=True), file, mark.line + 1, mark.column + 1)
 
 
+def _position(text: str, offset: int) -> tuple[int, int]:
+    """1-based line and column of character ``offset`` of ``text``."""
+    line = text.count("\n", 0, offset) + 1
+    return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
+
+
+def decode_utf8(data: bytes, file: str) -> str:
+    """The text of a file's bytes (UTF-8, with or without a byte order mark); a
+    :class:`YamlError` naming the line, column and byte offset of the first byte that is not
+    UTF-8 otherwise."""
+    bom = b"\xef\xbb\xbf"
+    body = data[len(bom):] if data.startswith(bom) else data
+    try:
+        return body.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        start = exc.start + len(data) - len(body)
+        before = data[:start].decode("utf-8", errors="replace")
+        line, column = _position(before, len(before))
+        raise YamlError(f"not UTF-8 text: byte 0x{data[start]:02x} at byte offset {start} cannot be decoded "
+                        "(save the file as UTF-8)", file, line, column) from None
+
+
 def load_located(source: str | Path, text: str | None = None) -> Located:
     """Parse a YAML file (or ``text`` named ``source``) into nested :class:`Located` values.
 
@@ -93,15 +115,21 @@ def load_located(source: str | Path, text: str | None = None) -> Located:
     file = str(source)
     if text is None:
         try:
-            text = Path(source).read_text(encoding="utf-8")
+            data = Path(source).read_bytes()
         except OSError as exc:
             raise YamlError(f"cannot read: {exc.strerror}", file) from None
+        text = decode_utf8(data, file)
     try:
         node = yaml.compose(text, Loader=Loader)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark
         raise YamlError(f"invalid YAML: {exc.problem}", file, mark.line + 1 if mark else None,
                         mark.column + 1 if mark else None) from None
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow, e.g. a NUL byte
+        line, column = _position(text, exc.position)
+        code = exc.character if isinstance(exc.character, int) else ord(str(exc.character)[:1] or "\0")
+        raise YamlError(f"invalid YAML: the character U+{code:04X} is not allowed in a YAML file", file,
+                        line, column) from None
     if node is None:
         raise YamlError("the file is empty", file)
     constructor = Loader("")

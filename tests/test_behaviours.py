@@ -662,7 +662,7 @@ def test_tactile_servo_uses_only_the_features_of_its_rows():
         (lambda: Centre(target_m=(0.0, 0.0, 0.0)), "target_m"),
         (lambda: TactileServo(kp=(1.0, 2.0)), "kp must be one number or 4 numbers"),
         (lambda: TactileServo(target_m=(0.0,)), "target_m"),
-        (lambda: ForceHold(band=-1.0), "band must not be negative"),
+        (lambda: ForceHold(band=-1.0), "band must be > 0"),
         (lambda: ContactLost(grace_s=-0.1), "grace_s"),
         (lambda: ForceLimit(limit_n=0.0), "limit_n"),
         (lambda: Approach(timeout_s=0.0), "timeout_s"),

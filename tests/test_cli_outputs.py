@@ -84,12 +84,13 @@ def test_unwritable_out_fails_before_the_mission(make_path, tmp_path, capsys, mo
 @pytest.mark.parametrize("argv", [
     ["view", "DIR", "--png", "BAD/x.png"],
     ["accuracy", "--trials", "1", "--png", "BAD/x.png"],
+    ["tree", str(ROOT / "trees" / "force_hold.yaml"), "--dot", "BAD/x.dot"],
 ])
 def test_unwritable_png_fails_before_the_work(argv, tmp_path, capsys):
     (tmp_path / "a_file").write_text("")
     argv = [a.replace("BAD", str(tmp_path / "a_file")).replace("DIR", str(tmp_path)) for a in argv]
     assert main(argv) == 2
-    _one_error_line(capsys.readouterr().err, "--png")
+    _one_error_line(capsys.readouterr().err, argv[-2])
 
 
 def test_reused_out_holds_only_the_new_run(tmp_path, capsys):

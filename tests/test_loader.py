@@ -580,7 +580,7 @@ root:
     "text,line,field,hint",
     [
         ("root:\n  retry:\n    num_failures: 1.5\n    child: {force_hold: }\n", 3, "retry.num_failures", "integer"),
-        ("root:\n  retry:\n    num_failures: 0\n    child: {force_hold: }\n", 3, "num_failures", "at least 1"),
+        ("root:\n  retry:\n    num_failures: 0\n    child: {force_hold: }\n", 3, "num_failures", "must be >= 1 (got 0)"),
         ("root:\n  repeat:\n    num_sucess: 2\n    child: {force_hold: }\n", 3, "num_sucess", "num_success"),
         ("root:\n  inverter:\n    children: [{force_hold: }]\n", 3, "children", "exactly one child"),
         ("root:\n  retryy:\n    child: {force_hold: }\n", 2, "retryy", "did you mean 'retry'"),

@@ -130,8 +130,39 @@ def test_twist_parts_errors_and_blackboard_writes():
     assert h.twist_of("force_hold")[2] > 0 and h.twist_of("centre")[0] > 0
     assert_allclose(h.twist_of(tree.children[2]), [0, 0.01, 0, 0, 0, 0])
     assert_allclose(h.twist, h.twist_of("force_hold") + h.twist_of("centre") + h.twist_of("guide"))
-    assert h.twist_of("nobody").tolist() == [0.0] * 6
+    assert h.twist_of("p").tolist() == [0.0] * 6  # a node of the tree that added nothing
     assert set(h.errors) == {"pressure_pa", "cop_x_px", "cop_y_px"}
+
+
+def test_twist_of_an_unknown_name_is_an_error_that_lists_the_names():
+    from tactile_bt.testing import UnknownNodeError
+
+    tree = py_trees.composites.Parallel(
+        "p", policy=py_trees.common.ParallelPolicy.SuccessOnOne(), children=[ForceHold(), Centre()])
+    h = LeafHarness(tree, dt=DT)
+    h.tick()
+    with pytest.raises(KeyError) as info:
+        h.twist_of("typo")
+    assert isinstance(info.value, UnknownNodeError)
+    assert str(info.value) == "no node named 'typo' in 'p'; known: p, force_hold, centre"
+    with pytest.raises(UnknownNodeError, match=r"did you mean 'centre'\?"):
+        h.twist_of("center")
+    with pytest.raises(UnknownNodeError, match="known: force_hold"):
+        LeafHarness(ForceHold()).twist_of(Centre())
+
+
+def test_leaf_harness_takes_a_loaded_tree_or_its_root():
+    from tactile_bt import load_tree
+
+    text = "root:\n  parallel:\n    children: [{force_hold: {target_pa: 2000}}, {centre: {}}]\n"
+    tree = load_tree("t.yaml", text=text)
+    h = LeafHarness(tree, dt=DT)
+    assert h.tree is tree and h.behaviour is tree.root
+    h.tick(make_features(pressure=1500.0, cop_px=(10.0, 7.5)))
+    assert h.twist_of("force_hold")[2] > 0 and h.twist_of("centre")[0] > 0
+    assert LeafHarness(load_tree("t.yaml", text=text).root).tree is None
+    plain = py_trees.trees.BehaviourTree(ForceHold(name="hold"))
+    assert LeafHarness(plain).tick(make_features(pressure=1500.0)) == Status.RUNNING
 
 
 def test_guided_slide_without_its_twist_key_fails_clearly_when_it_starts():

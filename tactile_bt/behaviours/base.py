@@ -24,6 +24,7 @@ import py_trees
 from py_trees.common import Access, Status
 
 from tactile_bt import defaults
+from tactile_bt.behaviours.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
 from tactile_bt.control import PID, feature_error, inverse_task_jacobian
 
 __all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "cycle_writer"]
@@ -61,7 +62,7 @@ def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | Non
     return writer
 
 
-class TactileBehaviour(py_trees.behaviour.Behaviour):
+class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
     """A py_trees leaf with read access to the cycle data of the ``/tactile`` blackboard.
 
     Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
@@ -158,6 +159,11 @@ class ServoLeaf(TactileBehaviour):
     rows: tuple[int, ...] = ()
     #: Units of the parameters whose names carry none (gains, limits, band), per subclass.
     parameter_units: dict[str, str] = {}
+    #: Admissible values (see :mod:`tactile_bt.behaviours.parameters`); an output limit of inf
+    #: means no limit.
+    parameter_bounds = {"kp": NON_NEGATIVE, "ki": NON_NEGATIVE, "kd": NON_NEGATIVE,
+                        "output_limit": POSITIVE_OR_INF, "band": POSITIVE, "dwell_s": NON_NEGATIVE,
+                        "roll_radius": POSITIVE}
     fixed_parameters = frozenset({"name", "roll_radius"})
 
     def __init__(

@@ -13,6 +13,8 @@ from typing import Literal
 import py_trees
 from py_trees.common import OneShotPolicy
 
+from tactile_bt.behaviours.parameters import Bound, BoundedParameters
+
 __all__ = ["Retry", "Repeat", "Inverter", "OneShot", "ONESHOT_POLICIES"]
 
 #: YAML spelling of the oneshot policies.
@@ -22,7 +24,7 @@ ONESHOT_POLICIES = {
 }
 
 
-class Retry(py_trees.decorators.Retry):
+class Retry(BoundedParameters, py_trees.decorators.Retry):
     """Restart a failing child: a child FAILURE becomes RUNNING (and the child starts again on
     the next tick) until it has failed ``num_failures`` times; then FAILURE. SUCCESS passes.
 
@@ -37,6 +39,7 @@ class Retry(py_trees.decorators.Retry):
     """
 
     fixed_parameters = frozenset({"name"})
+    parameter_bounds = {"num_failures": Bound(1)}
 
     def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "retry", num_failures: int = 3) -> None:
         if num_failures < 1:
@@ -49,7 +52,7 @@ class Retry(py_trees.decorators.Retry):
         self.num_failures = int(value)
 
 
-class Repeat(py_trees.decorators.Repeat):
+class Repeat(BoundedParameters, py_trees.decorators.Repeat):
     """Run a child again after each SUCCESS until it has succeeded ``num_success`` times; then
     SUCCESS. A child FAILURE is FAILURE at once.
 
@@ -64,6 +67,7 @@ class Repeat(py_trees.decorators.Repeat):
     """
 
     fixed_parameters = frozenset({"name"})
+    parameter_bounds = {"num_success": Bound(1, also=(-1,))}
 
     def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "repeat", num_success: int = 2) -> None:
         if num_success < 1 and num_success != -1:

@@ -10,6 +10,7 @@ import py_trees
 from py_trees.common import Access, Status
 
 from tactile_bt.behaviours.base import NAMESPACE, TactileBehaviour
+from tactile_bt.behaviours.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
 
 __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 
@@ -17,7 +18,7 @@ _STORAGE = py_trees.blackboard.Blackboard.storage
 _TIME = f"{NAMESPACE}/time"
 
 
-class MissionTimeout(py_trees.decorators.Decorator):
+class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
     """Run ``child`` for at most ``duration_s`` seconds of mission time, then FAILURE
     (or SUCCESS with ``succeed=True``, for phases that simply last a while). A child that
     finishes in time passes its status through. The clock restarts whenever the decorator
@@ -36,6 +37,7 @@ class MissionTimeout(py_trees.decorators.Decorator):
     """
 
     fixed_parameters = frozenset({"name"})
+    parameter_bounds = {"duration_s": POSITIVE}
 
     def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "mission_timeout", duration_s: float = 10.0,
                  succeed: bool = False) -> None:
@@ -100,6 +102,7 @@ class ContactLost(TactileBehaviour):
     """
 
     uses = frozenset({"pressure"})
+    parameter_bounds = {"grace_s": NON_NEGATIVE}
 
     def __init__(self, name: str = "contact_lost", grace_s: float = 0.2) -> None:
         super().__init__(name)
@@ -140,6 +143,7 @@ class ForceLimit(TactileBehaviour):
     """
 
     uses = frozenset({"pressure"})
+    parameter_bounds = {"limit_n": POSITIVE}
 
     def __init__(self, name: str = "force_limit", limit_n: float = 10.0) -> None:
         super().__init__(name)

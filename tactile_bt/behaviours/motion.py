@@ -11,7 +11,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt import defaults
 from tactile_bt.behaviours.base import TactileBehaviour
-from tactile_bt.behaviours.parameters import BlackboardReferenceError, normalise_key
+from tactile_bt.behaviours.parameters import NON_NEGATIVE, POSITIVE, BlackboardReferenceError, normalise_key
 
 _STORAGE = py_trees.blackboard.Blackboard.storage
 
@@ -38,6 +38,8 @@ class Approach(TactileBehaviour):
     """
 
     uses = frozenset({"pressure"})
+    parameter_bounds = {"speed_mps": POSITIVE, "pressure_pa": POSITIVE, "timeout_s": POSITIVE,
+                        "max_travel_m": POSITIVE}
 
     def __init__(
         self,
@@ -120,6 +122,10 @@ class GuidedSlide(TactileBehaviour):
     """
 
     fixed_parameters = frozenset({"name", "twist_key"})
+    #: ``twist`` is signed (its sign is the direction) and only has to be finite.
+    parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE}
+    #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
+    key_parameters = {"twist_key": "twist"}
 
     def __init__(
         self,

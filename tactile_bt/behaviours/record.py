@@ -13,6 +13,7 @@ from py_trees.common import Status
 from scipy import ndimage
 
 from tactile_bt.behaviours.base import TactileBehaviour
+from tactile_bt.behaviours.parameters import NON_NEGATIVE, POSITIVE, between
 from tactile_bt.features import local_contact_point
 
 __all__ = ["ContactCloud", "RecordContacts", "imprint_points"]
@@ -197,6 +198,8 @@ class RecordContacts(TactileBehaviour):
 
     uses = frozenset({"cop", "pressure"})
     fixed_parameters = frozenset({"name", "point", "reconstruct"})
+    parameter_bounds = {"min_spacing_m": NON_NEGATIVE, "voxel_m": NON_NEGATIVE,
+                        "region_level": between(0, 1, low_open=True), "region_step_m": POSITIVE}
 
     def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
                  point: Literal["cop", "local", "region"] = "cop", voxel_m: float = 0.0,

@@ -21,7 +21,7 @@ import py_trees
 from py_trees.common import Access, Status
 
 from tactile_bt.behaviours.base import TactileBehaviour
-from tactile_bt.behaviours.parameters import normalise_key
+from tactile_bt.behaviours.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["ScanDirection", "StripeEnd", "CoverageStalled"]
 
@@ -55,6 +55,7 @@ class ScanDirection(TactileBehaviour):
     """
 
     fixed_parameters = frozenset({"name", "key"})
+    parameter_bounds = {"speed_mps": POSITIVE}
 
     def __init__(self, name: str = "scan_direction", direction: Sequence[float] = (1.0, 0.0, 0.0),
                  speed_mps: float = 0.02, key: str = "/scan/guidance") -> None:
@@ -143,6 +144,9 @@ class StripeEnd(TactileBehaviour):
 
     uses = frozenset({"cop"})
     fixed_parameters = frozenset({"name", "result"})
+    parameter_bounds = {"window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE, "max_tilt_rad": between(0, math.pi),
+                        "max_travel_m": NON_NEGATIVE, "min_area_ratio": between(0, 1, high_open=True),
+                        "max_jump_m": NON_NEGATIVE, "max_turn_rad": between(0, math.pi)}
 
     def __init__(self, name: str = "stripe_end", window_s: float = 1.0, min_travel_m: float = 0.004,
                  max_tilt_rad: float = 0.0, up: Sequence[float] = (0.0, 0.0, 1.0),
@@ -277,6 +281,8 @@ class CoverageStalled(TactileBehaviour):
     min_samples : int
         The cloud must hold at least this many samples before the test applies.
     """
+
+    parameter_bounds = {"window_s": POSITIVE, "min_growth": NON_NEGATIVE, "min_samples": NON_NEGATIVE}
 
     def __init__(self, name: str = "coverage_stalled", window_s: float = 10.0, min_growth: float = 0.02,
                  min_samples: int = 100) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 
 from tactile_bt import defaults
 from tactile_bt.behaviours.base import ServoLeaf
+from tactile_bt.behaviours.parameters import POSITIVE
 
 __all__ = ["ForceHold", "Centre", "Roll", "AlignEdge", "TactileServo"]
 
@@ -40,6 +41,7 @@ class ForceHold(ServoLeaf):
     components = (2,)
     rows = (2,)
     parameter_units = {"kp": "(m/s)/Pa", "ki": "(m/s)/(Pa·s)", "kd": "m/Pa", "output_limit": "m/s", "band": "Pa"}
+    parameter_bounds = {"target_pa": POSITIVE}
 
     def __init__(
         self,
@@ -247,6 +249,7 @@ class TactileServo(ServoLeaf):
     uses = frozenset({"cop", "pressure", "orientation"})
     components = (0, 1, 2, 3)
     fixed_parameters = frozenset({"name", "roll_radius", "P"})
+    parameter_bounds = {"target_pa": POSITIVE}
 
     def __init__(
         self,
