@@ -21,4 +21,4 @@ tactile-bt run trees/surface_scan.yaml --scene sim/object.yaml --out out/scan_ob
 tactile-bt bench | tee out/bench.txt
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --record out/cable.tbr --out out/cable_recorded > /dev/null
 tactile-bt replay out/cable.tbr --tree trees/cable_follow.yaml | tee out/replay.txt
-python -m tactile_bt.hardware.soak --seconds 10 --rate 1900 | tee out/soak.txt
+python -m tactile_bt.sense.hardware.soak --seconds 10 --rate 1900 | tee out/soak.txt

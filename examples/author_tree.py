@@ -13,7 +13,7 @@ import numpy as np
 import py_trees
 
 from tactile_bt import run_mission
-from tactile_bt.behaviours import (AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, RecordContacts,
+from tactile_bt.tree.behaviours import (AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, RecordContacts,
                                   TactileServo)
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -13,11 +13,11 @@ __all__ = ["load_tree", "run_mission", "__version__"]
 
 def __getattr__(name: str):
     if name == "load_tree":
-        from tactile_bt.loader import load_tree
+        from tactile_bt.tree.loader import load_tree
 
         return load_tree
     if name == "run_mission":
-        from tactile_bt.mission import run_mission
+        from tactile_bt.mission.run import run_mission
 
         return run_mission
     raise AttributeError(f"module 'tactile_bt' has no attribute {name!r}")

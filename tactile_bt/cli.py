@@ -37,10 +37,10 @@ class CommandLineError(ValueError):
 
 
 def _cmd_run(args) -> int:
-    from tactile_bt.mission import calibration_path, run_mission
+    from tactile_bt.mission.run import calibration_path, run_mission
 
     if args.record is not None:  # before the mission: never overwrite a file unasked
-        from tactile_bt.hardware.options import OutputPathError, check_output
+        from tactile_bt.sense.hardware.options import OutputPathError, check_output
 
         try:
             check_output(args.record, args.force)
@@ -82,9 +82,9 @@ def _print_report(r: dict) -> None:
 
 
 def _cmd_replay(args) -> int:
-    from tactile_bt.hardware.options import one_line_warnings
-    from tactile_bt.hardware.recording import RecordingError
-    from tactile_bt.replay import ReplayError, replay_mission
+    from tactile_bt.sense.hardware.options import one_line_warnings
+    from tactile_bt.sense.hardware.recording import RecordingError
+    from tactile_bt.mission.replay import ReplayError, replay_mission
 
     try:
         with one_line_warnings():
@@ -105,7 +105,7 @@ def _cmd_replay(args) -> int:
 def _cmd_tree(args) -> int:
     import py_trees
 
-    from tactile_bt.loader import format_parameters, load_tree
+    from tactile_bt.tree.loader import format_parameters, load_tree
 
     _check_output_file(args.dot, "--dot")
     tree = load_tree(args.tree, params=args.param)
@@ -120,7 +120,7 @@ def _cmd_tree(args) -> int:
 
 
 def _cmd_view(args) -> int:
-    from tactile_bt.view import render_mission
+    from tactile_bt.mission.view import render_mission
 
     _check_output_file(args.png, "--png")
     png = render_mission(Path(args.dir), args.png, color_by=args.color_by)
@@ -130,20 +130,20 @@ def _cmd_view(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from tactile_bt.bench import run_bench
+    from tactile_bt.experiments.bench import run_bench
 
     figures = run_bench(quick=args.quick)
     if args.json:
         print(json.dumps(figures, indent=2))
     else:
-        from tactile_bt.bench import format_bench
+        from tactile_bt.experiments.bench import format_bench
 
         print(format_bench(figures))
     return 0
 
 
 def _cmd_paper(args) -> int:
-    from tactile_bt.paper import format_tables, plot_roll, run_paper, run_roll, write_paper
+    from tactile_bt.experiments.paper import format_tables, plot_roll, run_paper, run_roll, write_paper
 
     out = Path(args.out)
     results = run_paper(trials=args.trials, duration=args.duration, workers=args.workers)
@@ -155,7 +155,7 @@ def _cmd_paper(args) -> int:
 
 
 def _cmd_stability(args) -> int:
-    from tactile_bt.stability import format_table, run_stability
+    from tactile_bt.experiments.stability import format_table, run_stability
 
     started = time.perf_counter()
     results = run_stability(Path(args.out), rates=not args.no_rates)
@@ -165,7 +165,7 @@ def _cmd_stability(args) -> int:
 
 
 def _cmd_accuracy(args) -> int:
-    from tactile_bt.synthetic import cop_accuracy, orientation_comparison
+    from tactile_bt.perception.synthetic import cop_accuracy, orientation_comparison
 
     _check_output_file(args.png, "--png")
     orientation = orientation_comparison(trials=args.trials, seed=args.seed)
@@ -206,7 +206,7 @@ def _cmd_accuracy(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from tactile_bt import __version__
-    from tactile_bt.hardware.options import nonnegative_int, positive_float, positive_int
+    from tactile_bt.sense.hardware.options import nonnegative_int, positive_float, positive_int
 
     parser = argparse.ArgumentParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -293,7 +293,7 @@ def build_parser() -> argparse.ArgumentParser:
     acc.set_defaults(func=_cmd_accuracy)
 
     try:
-        from tactile_bt.hardware.cli import add_sensor_subcommands
+        from tactile_bt.sense.hardware.cli import add_sensor_subcommands
     except ImportError:
         pass
     else:
@@ -304,9 +304,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from tactile_bt.behaviours.parameters import BlackboardReferenceError
-    from tactile_bt.mission import MissionLengthError
-    from tactile_bt.report import OutputPathError
+    from tactile_bt.tree.parameters import BlackboardReferenceError
+    from tactile_bt.mission.run import MissionLengthError
+    from tactile_bt.mission.outputs import OutputPathError
     from tactile_bt.yamlutil import YamlError
 
     try:

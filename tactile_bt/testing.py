@@ -3,7 +3,7 @@ scripted tactile frames, a fake mission clock, and access to the twist a leaf ad
 
 Example
 -------
->>> from tactile_bt.behaviours import ForceHold
+>>> from tactile_bt.tree.behaviours import ForceHold
 >>> from tactile_bt.testing import LeafHarness, make_features
 >>> h = LeafHarness(ForceHold(target_pa=2000))
 >>> h.tick(make_features(pressure=1500))        # too light: press on
@@ -32,12 +32,12 @@ import py_trees
 from py_trees.common import Access, Status
 
 from tactile_bt import defaults
-from tactile_bt.behaviours.base import cycle_writer
-from tactile_bt.behaviours.record import ContactCloud
-from tactile_bt.calibration import TactelCalibration
-from tactile_bt.control import ServoCommand
-from tactile_bt.features import ContactFeatures, extract
-from tactile_bt.filters import FeatureSmoother
+from tactile_bt.tree.behaviours.base import cycle_writer
+from tactile_bt.tree.behaviours.record import ContactCloud
+from tactile_bt.sense.calibration import TactelCalibration
+from tactile_bt.control.servo import ServoCommand
+from tactile_bt.perception.features import ContactFeatures, extract
+from tactile_bt.perception.smoothing import FeatureSmoother
 
 __all__ = [
     "make_features",
@@ -95,9 +95,9 @@ def contact_frame(
     (from +x towards +y) with a cross profile ``width_px`` wide; ``length_px = 0`` a round
     contact of that width. Extraction sees a little less force (1–3 %): the binarisation
     threshold cuts the contact's rim. The defaults cover 36 tactels: 2 N is then about 2.2 kPa. Built
-    with :mod:`tactile_bt.synthetic`.
+    with :mod:`tactile_bt.perception.synthetic`.
     """
-    from tactile_bt.synthetic import blob_contact, line_contact
+    from tactile_bt.perception.synthetic import blob_contact, line_contact
 
     if length_px > 0:
         return line_contact(cop_px, orientation_rad, length_px, width_px, force_n, shape=tuple(shape))
@@ -118,7 +118,7 @@ def raw_frame(force_image, calibration: TactelCalibration | None = None, noise_c
 
 class FramePerception:
     """The mission's perception of one frame: raw counts → calibration inverse → force image →
-    :func:`~tactile_bt.features.extract` → :class:`~tactile_bt.filters.FeatureSmoother`.
+    :func:`~tactile_bt.perception.features.extract` → :class:`~tactile_bt.perception.smoothing.FeatureSmoother`.
 
     Call it with a force image (``force=``, N per tactel) or raw counts (``raw=``); it returns
     ``(features_raw, features)`` — unsmoothed and smoothed, as the leaves see them on the

@@ -7,9 +7,9 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.spatial import adjoint, integrate_spatial, invert, make_pose, skew
-from tactile_bt.sim.arm import CompliantArm, bracket_stiffness, point_wrench
-from tactile_bt.sim.kinematics import (
+from tactile_bt.control.spatial import adjoint, integrate_spatial, invert, make_pose, skew
+from tactile_bt.robot.arm import CompliantArm, bracket_stiffness, point_wrench
+from tactile_bt.robot.kinematics import (
     DEFAULT_MOUNT_OFFSET_M,
     Q_MAX,
     Q_MIN,

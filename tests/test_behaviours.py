@@ -1,6 +1,6 @@
 """Tactile leaves, each alone: fake features and a fake mission clock (tactile_bt.testing).
 
-Sign conventions checked here come from tactile_bt/control.py: Δf = target − measured,
+Sign conventions checked here come from tactile_bt/control/servo.py: Δf = target − measured,
 v_x = −u_x, v_y = −u_y, v_z = +u_p, ω_x = +u_y / r, ω_y = −u_x / r, ω_z = −u_α. Errors the
 leaves report are measured − target in metric units (Pa, px, rad).
 """
@@ -15,7 +15,7 @@ from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
-from tactile_bt.behaviours import (
+from tactile_bt.tree.behaviours import (
     AlignEdge,
     Approach,
     Centre,
@@ -29,10 +29,10 @@ from tactile_bt.behaviours import (
     Roll,
     TactileServo,
 )
-from tactile_bt.features import extract
+from tactile_bt.perception.features import extract
 from tactile_bt.sim.objects import Cable, polyline_from_segments
-from tactile_bt.sim.sensor import SensorModel, SensorParams
-from tactile_bt.spatial import make_pose
+from tactile_bt.sim.pad import SensorModel, SensorParams
+from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
 
 PITCH = defaults.PITCH_M
@@ -694,7 +694,7 @@ def test_set_parameter_goes_through_the_same_checks_and_updates_derived_state():
 
 
 def test_bind_blackboard_in_python():
-    from tactile_bt.behaviours import bind_blackboard
+    from tactile_bt.tree.behaviours import bind_blackboard
 
     leaf = Centre()
     bind_blackboard(leaf, "target_m", "/goal/cop")

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from tactile_bt.bench import bench_control_cycle, bench_features, bench_mission, format_bench
+from tactile_bt.experiments.bench import bench_control_cycle, bench_features, bench_mission, format_bench
 
 
 def test_bench_figures_are_ratios_measured_in_one_run():

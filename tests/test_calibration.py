@@ -1,4 +1,4 @@
-"""Tests of tactile_bt.calibration: per-tactel characteristic, inverse, saturation, files."""
+"""Tests of tactile_bt.sense.calibration: per-tactel characteristic, inverse, saturation, files."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from tactile_bt import defaults
-from tactile_bt.calibration import NOMINAL_SATURATION_N, TactelCalibration
+from tactile_bt.sense.calibration import NOMINAL_SATURATION_N, TactelCalibration
 
 PAD = (defaults.ROWS, defaults.COLS)
 

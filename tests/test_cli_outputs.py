@@ -13,7 +13,7 @@ import pytest
 
 from tactile_bt import load_tree
 from tactile_bt.cli import main
-from tactile_bt.report import OUTPUT_FILES
+from tactile_bt.mission.outputs import OUTPUT_FILES
 
 ROOT = Path(__file__).resolve().parent.parent
 FORCE_HOLD = str(ROOT / "trees" / "force_hold.yaml")
@@ -69,7 +69,7 @@ def test_version(capsys):
 ])
 def test_unwritable_out_fails_before_the_mission(make_path, tmp_path, capsys, monkeypatch):
     (tmp_path / "a_file").write_text("keep me")
-    import tactile_bt.mission as mission
+    import tactile_bt.mission.run as mission
 
     def no_world(*args, **kwargs):  # the mission must not start
         raise AssertionError("the mission ran")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from tactile_bt.control import (
+from tactile_bt.control.servo import (
     PID,
     PROJECTIONS,
     ServoCommand,
@@ -13,7 +13,7 @@ from tactile_bt.control import (
     limit_twist,
     projection,
 )
-from tactile_bt.spatial import exp_twist, invert
+from tactile_bt.control.spatial import exp_twist, invert
 from tactile_bt.testing import make_features
 
 DT = 0.004

@@ -6,7 +6,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.features import extract, wrap_half_pi
+from tactile_bt.perception.features import extract, wrap_half_pi
 from tactile_bt.sim.events import EventSchedule, ObjectEvent
 from tactile_bt.sim.scene import SceneError, load_scene
 from tactile_bt.sim.shapes import Box

@@ -1,4 +1,4 @@
-"""Tests of tactile_bt.features: contact region, COP, pressure, orientation, robustness (speed: ``tactile-bt bench``)."""
+"""Tests of tactile_bt.perception.features: contact region, COP, pressure, orientation, robustness (speed: ``tactile-bt bench``)."""
 
 from __future__ import annotations
 
@@ -12,10 +12,11 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose, assert_array_equal
 
-from tactile_bt import defaults, features
-from tactile_bt.features import ContactFeatures, extract, wrap_half_pi
-from tactile_bt.perception_baseline import extract_with_regionprops
-from tactile_bt.synthetic import add_spurious_blob, blob_contact, line_contact, sensor_effects
+from tactile_bt import defaults
+from tactile_bt.perception import features
+from tactile_bt.perception.features import ContactFeatures, extract, wrap_half_pi
+from tactile_bt.perception.baseline import extract_with_regionprops
+from tactile_bt.perception.synthetic import add_spurious_blob, blob_contact, line_contact, sensor_effects
 
 PAD = (defaults.ROWS, defaults.COLS)
 

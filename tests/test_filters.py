@@ -1,4 +1,4 @@
-"""Tests of tactile_bt.filters: moving averages of scalars, axis angles and contact features."""
+"""Tests of tactile_bt.perception.smoothing: moving averages of scalars, axis angles and contact features."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 from tactile_bt import defaults
-from tactile_bt.features import ContactFeatures, extract, wrap_half_pi
-from tactile_bt.filters import AngleMovingAverage, FeatureSmoother, MovingAverage
-from tactile_bt.synthetic import line_contact
+from tactile_bt.perception.features import ContactFeatures, extract, wrap_half_pi
+from tactile_bt.perception.smoothing import AngleMovingAverage, FeatureSmoother, MovingAverage
+from tactile_bt.perception.synthetic import line_contact
 
 
 def test_moving_average_window_nan_and_reset():

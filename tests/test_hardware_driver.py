@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 import serial
 
-from tactile_bt.hardware import protocol as P
-from tactile_bt.hardware.driver import (
+from tactile_bt.sense.hardware import protocol as P
+from tactile_bt.sense.hardware.driver import (
     SensorConnectionError,
     SensorDisconnectedError,
     SensorError,
     SerialTactileSensor,
 )
-from tactile_bt.hardware.emulator import DeviceEmulator, FaultConfig, synthetic_source
-from tactile_bt.hardware.soak import DEFAULT_FAULTS, run_soak
+from tactile_bt.sense.hardware.emulator import DeviceEmulator, FaultConfig, synthetic_source
+from tactile_bt.sense.hardware.soak import DEFAULT_FAULTS, run_soak
 
 #: Bound on waits that only fail a broken run (configuration answer, first frame): generous, so
 #: that a loaded machine does not fail them.
@@ -28,7 +28,7 @@ T = 5.0
 def test_every_frame_arrives_intact_at_1900_hz():
     # At least 2800 frames (~1.5 s at 1900 Hz) however loaded the machine is.  How close the
     # emulator's real-time rate gets to 1900 Hz depends on the CPU it gets, so it is reported
-    # (python -m tactile_bt.hardware.soak) rather than asserted.
+    # (python -m tactile_bt.sense.hardware.soak) rather than asserted.
     result = run_soak(2.0, rate_hz=1900, min_frames=2800)
     assert result.ok, result.summary()
     assert result.sent >= 2800 and result.stats.resyncs == result.stats.dropped == 0

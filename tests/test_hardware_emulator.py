@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import serial
 
-from tactile_bt.hardware import protocol as P
-from tactile_bt.hardware.driver import SerialTactileSensor
-from tactile_bt.hardware.emulator import DeviceEmulator, EmulatorLog, FaultConfig, SentFrame, synthetic_source
-from tactile_bt.hardware.recording import Recorder
+from tactile_bt.sense.hardware import protocol as P
+from tactile_bt.sense.hardware.driver import SerialTactileSensor
+from tactile_bt.sense.hardware.emulator import DeviceEmulator, EmulatorLog, FaultConfig, SentFrame, synthetic_source
+from tactile_bt.sense.hardware.recording import Recorder
 
 #: Bound on waits that only fail a broken run (configuration answer, first frame): generous, so
 #: that a loaded machine does not fail them.
@@ -237,7 +237,7 @@ def test_a_failing_source_is_reported_and_the_device_keeps_answering():
 
 
 def test_cli_emulate_prints_a_port_a_driver_can_open():
-    proc = subprocess.Popen([sys.executable, "-m", "tactile_bt.hardware.cli", "sensor", "emulate", "--duration", "20"],
+    proc = subprocess.Popen([sys.executable, "-m", "tactile_bt.sense.hardware.cli", "sensor", "emulate", "--duration", "20"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         port = proc.stdout.readline().strip()

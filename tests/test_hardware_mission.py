@@ -7,8 +7,8 @@ import pytest
 from numpy.testing import assert_array_equal
 
 from tactile_bt import run_mission
-from tactile_bt.hardware.recording import read_recording
-from tactile_bt.replay import replay_mission
+from tactile_bt.sense.hardware.recording import read_recording
+from tactile_bt.mission.replay import replay_mission
 
 ROOT = Path(__file__).resolve().parent.parent
 TREE = ROOT / "trees" / "cable_follow.yaml"
@@ -38,7 +38,7 @@ def test_a_recorded_mission_replays_deterministically(tmp_path):
 
 
 def test_replay_of_an_empty_recording_is_a_clear_error(tmp_path):
-    from tactile_bt.hardware.recording import Recorder
+    from tactile_bt.sense.hardware.recording import Recorder
 
     path = tmp_path / "empty.tbr"
     with Recorder(path):

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from tactile_bt.hardware import protocol as P
+from tactile_bt.sense.hardware import protocol as P
 
 ROWS, COLS = 16, 16
 PLEN = 2 * ROWS * COLS

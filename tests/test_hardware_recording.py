@@ -12,10 +12,10 @@ import warnings
 import numpy as np
 import pytest
 
-from tactile_bt.hardware.cli import main as cli_main
-from tactile_bt.hardware.emulator import DeviceEmulator, synthetic_source
-from tactile_bt.hardware.protocol import TactileFrame
-from tactile_bt.hardware.recording import (
+from tactile_bt.sense.hardware.cli import main as cli_main
+from tactile_bt.sense.hardware.emulator import DeviceEmulator, synthetic_source
+from tactile_bt.sense.hardware.protocol import TactileFrame
+from tactile_bt.sense.hardware.recording import (
     Recorder,
     RecordingError,
     RecordingWarning,
@@ -151,7 +151,7 @@ def test_sigkill_mid_recording_leaves_every_completed_chunk_replayable(tmp_path)
     out = tmp_path / "killed.tbr"
     with DeviceEmulator(synthetic_source(), rate_hz=1900) as emu:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "tactile_bt.hardware.cli", "sensor", "record", emu.port, "--out", str(out),
+            [sys.executable, "-m", "tactile_bt.sense.hardware.cli", "sensor", "record", emu.port, "--out", str(out),
              "--chunk-frames", "100"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
         )

@@ -4,7 +4,7 @@ path error, on constructed series with known answers."""
 import numpy as np
 import pytest
 
-from tactile_bt.metrics import feature_metrics, path_error, response_time
+from tactile_bt.mission.metrics import feature_metrics, path_error, response_time
 from tactile_bt.sim.objects import Cable, polyline_from_segments
 
 DT = 0.004  # 250 Hz

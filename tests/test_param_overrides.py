@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from tactile_bt import load_tree
-from tactile_bt.behaviours import ForceHold
+from tactile_bt.tree.behaviours import ForceHold
 from tactile_bt.cli import main
-from tactile_bt.loader import TreeError, format_parameters
+from tactile_bt.tree.loader import TreeError, format_parameters
 from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -168,8 +168,8 @@ def test_blackboard_values_are_checked_and_written_when_the_tree_is_set_up():
 
 
 def test_the_mission_loop_writes_the_blackboard_values():
-    from tactile_bt.calibration import TactelCalibration
-    from tactile_bt.mission import ControlLoop
+    from tactile_bt.sense.calibration import TactelCalibration
+    from tactile_bt.mission.run import ControlLoop
 
     tree = tree_with(blackboard={"/goal/pressure": 1600.0, "/planner/twist": [0.0] * 6, "/goal/cop": [0, 0]},
                      text=BB_TREE)
@@ -280,7 +280,7 @@ root:
 
 
 def test_run_mission_passes_params_and_blackboard_to_the_loader():
-    from tactile_bt.mission import _resolve
+    from tactile_bt.mission.run import _resolve
 
     tree, _ = _resolve(str(ROOT / "examples" / "slide_and_record.yaml"), str(SCENE), None,
                        params=["slide_10s.duration_s=4"], blackboard=["/goal/pressure=1900"])

@@ -9,8 +9,8 @@ import py_trees
 import pytest
 
 from tactile_bt import load_tree
-from tactile_bt.behaviours import DECORATORS, LEAVES, ForceHold, Repeat, Retry, TactileServo
-from tactile_bt.behaviours.parameters import (
+from tactile_bt.tree.behaviours import DECORATORS, LEAVES, ForceHold, Repeat, Retry, TactileServo
+from tactile_bt.tree.parameters import (
     FINITE,
     Bound,
     ParameterValueError,
@@ -20,7 +20,7 @@ from tactile_bt.behaviours.parameters import (
     parameters_of,
 )
 from tactile_bt.cli import main
-from tactile_bt.loader import TreeError
+from tactile_bt.tree.loader import TreeError
 from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
 
 FILE = "trees/x.yaml"
@@ -282,7 +282,7 @@ def test_convert_parameter_and_bounds_directly():
     ],
 )
 def test_blackboard_values_get_the_same_checks(value, needle):
-    from tactile_bt.behaviours import BlackboardReferenceError
+    from tactile_bt.tree.behaviours import BlackboardReferenceError
 
     tree = load_tree(FILE, text='root:\n  force_hold: {name: hold, target_pa: "@/goal/pressure"}\n')
     h = LeafHarness(tree)
@@ -353,7 +353,7 @@ def test_python_trees_get_no_blackboard_writer_by_accident():
 
 
 def test_a_python_leaf_with_unreadable_type_hints_still_builds():
-    from tactile_bt.behaviours import TactileBehaviour
+    from tactile_bt.tree.behaviours import TactileBehaviour
 
     class Odd(TactileBehaviour):
         def __init__(self, name: str = "odd", level: "NotImportedHere" = 1.0) -> None:  # noqa: F821

@@ -1,6 +1,6 @@
 """The user test shown in README.md, verbatim: it must keep passing."""
 
-from tactile_bt.behaviours import ForceHold
+from tactile_bt.tree.behaviours import ForceHold
 from tactile_bt.testing import LeafHarness, make_features
 
 

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from tactile_bt.reconstruct import (METHODS, bench_reconstruction, best_fit_plane, clean_mesh, cloud_spacing,
+from tactile_bt.contacts.reconstruct import (METHODS, bench_reconstruction, best_fit_plane, clean_mesh, cloud_spacing,
                                     reconstruct, thin_cloud, write_surface)
-from tactile_bt.scan_metrics import reconstruction_metrics
+from tactile_bt.mission.accuracy import reconstruction_metrics
 
 
 def plane_cloud(spacing=0.002, size=0.1, z=0.05, tilt_deg=0.0):

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tactile_bt.calibration import TactelCalibration
+from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.cli import main
-from tactile_bt.hardware.recording import Recorder, RecordingWarning, iter_chunks, read_header, read_recording
-from tactile_bt.replay import replay_mission
+from tactile_bt.sense.hardware.recording import Recorder, RecordingWarning, iter_chunks, read_header, read_recording
+from tactile_bt.mission.replay import replay_mission
 
 ROOT = Path(__file__).resolve().parent.parent
 TREE = str(ROOT / "trees" / "cable_follow.yaml")
@@ -290,7 +290,7 @@ def test_sensor_record_refuses_to_overwrite_before_opening_the_port(tmp_path, ca
 
 
 def test_sensor_record_force_overwrites(tmp_path):
-    from tactile_bt.hardware.emulator import DeviceEmulator, synthetic_source
+    from tactile_bt.sense.hardware.emulator import DeviceEmulator, synthetic_source
 
     out = make_recording(tmp_path / "r.tbr", n=1001)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}

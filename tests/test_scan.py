@@ -12,15 +12,15 @@ from numpy.testing import assert_allclose
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.behaviours import ContactCloud, CoverageStalled, RecordContacts, ScanDirection, StripeEnd
-from tactile_bt.behaviours.record import imprint_points
-from tactile_bt.features import extract
-from tactile_bt.scan_metrics import (check_region, contact_continuity, reconstruction_metrics, region_mask,
+from tactile_bt.tree.behaviours import ContactCloud, CoverageStalled, RecordContacts, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours.record import imprint_points
+from tactile_bt.perception.features import extract
+from tactile_bt.mission.accuracy import (check_region, contact_continuity, reconstruction_metrics, region_mask,
                                      sample_surface, true_surface)
-from tactile_bt.sim.sensor import SensorModel, SensorParams
+from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.objects import object_pose
-from tactile_bt.spatial import make_pose
+from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
 
 DT = 1.0 / 250.0

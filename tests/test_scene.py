@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from tactile_bt.sim.objects import Cable, Table
 from tactile_bt.sim.scene import SceneError, load_scene
-from tactile_bt.sim.sensor import SensorParams
+from tactile_bt.sim.pad import SensorParams
 
 REPO = Path(__file__).resolve().parents[1]
 CABLE_SCENE = REPO / "sim" / "cable.yaml"

@@ -9,11 +9,11 @@ import pytest
 from numpy.testing import assert_allclose
 
 from tactile_bt.cli import main
-from tactile_bt.sim.mounts import MountSpec
+from tactile_bt.robot.mounts import MountSpec
 from tactile_bt.sim.objects import Cable
 from tactile_bt.sim.scene import (MAX_START_DEPTH_M, SENSOR, Scene, SceneError, check_seed, load_scene)
-from tactile_bt.sim.sensor import SensorModel, SensorParams
-from tactile_bt.stability import ROOT, extreme_cases, stiffness_cases
+from tactile_bt.sim.pad import SensorModel, SensorParams
+from tactile_bt.experiments.stability import ROOT, extreme_cases, stiffness_cases
 
 SIM = ROOT / "sim"
 PEN = (SIM / "pen.yaml").read_text()

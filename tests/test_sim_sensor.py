@@ -9,11 +9,11 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
-from tactile_bt.features import extract, wrap_half_pi
+from tactile_bt.perception.features import extract, wrap_half_pi
 from tactile_bt.sim.objects import CONTACT_REFERENCE_AREA_M2, Cable, Table, polyline_from_segments
-from tactile_bt.sim.sensor import SensorModel, SensorParams
+from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.sim.world import CartesianMount, World
-from tactile_bt.spatial import make_pose
+from tactile_bt.control.spatial import make_pose
 
 PITCH = defaults.PITCH_M
 FACE_DOWN = Rotation.from_euler("x", 180, degrees=True)  # sensor z (towards the object) = −world z

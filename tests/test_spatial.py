@@ -4,7 +4,7 @@ import numpy as np
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.spatial import adjoint, body_to_spatial, exp_twist, integrate_spatial, invert, make_pose, transform_points
+from tactile_bt.control.spatial import adjoint, body_to_spatial, exp_twist, integrate_spatial, invert, make_pose, transform_points
 
 
 def random_pose(rng):

@@ -3,7 +3,7 @@ settles within 2 s, each extreme case is survived or stopped by its guard."""
 
 import pytest
 
-from tactile_bt.stability import extreme_cases, run_case, stiffness_cases
+from tactile_bt.experiments.stability import extreme_cases, run_case, stiffness_cases
 
 
 @pytest.mark.parametrize("case", stiffness_cases(), ids=lambda c: c.name)

@@ -1,4 +1,4 @@
-"""Tests of tactile_bt.synthetic: generators with ground truth, and the accuracy requirements."""
+"""Tests of tactile_bt.perception.synthetic: generators with ground truth, and the accuracy requirements."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy import ndimage
 
 from tactile_bt import defaults
-from tactile_bt.calibration import TactelCalibration
-from tactile_bt.features import extract, wrap_half_pi
-from tactile_bt.synthetic import (
+from tactile_bt.sense.calibration import TactelCalibration
+from tactile_bt.perception.features import extract, wrap_half_pi
+from tactile_bt.perception.synthetic import (
     add_spurious_blob,
     blob_contact,
     cop_accuracy,

@@ -12,10 +12,10 @@ from py_trees.common import Status
 
 import tactile_bt.testing
 from tactile_bt import defaults
-from tactile_bt.behaviours import AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, TactileBehaviour
-from tactile_bt.calibration import TactelCalibration
-from tactile_bt.features import extract
-from tactile_bt.filters import FeatureSmoother
+from tactile_bt.tree.behaviours import AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, TactileBehaviour
+from tactile_bt.sense.calibration import TactelCalibration
+from tactile_bt.perception.features import extract
+from tactile_bt.perception.smoothing import FeatureSmoother
 from tactile_bt.testing import (
     FramePerception,
     LeafHarness,
@@ -166,7 +166,7 @@ def test_leaf_harness_takes_a_loaded_tree_or_its_root():
 
 
 def test_guided_slide_without_its_twist_key_fails_clearly_when_it_starts():
-    from tactile_bt.behaviours import BlackboardReferenceError
+    from tactile_bt.tree.behaviours import BlackboardReferenceError
 
     h = LeafHarness(GuidedSlide(twist_key="/planner/twist"), dt=DT)
     with pytest.raises(BlackboardReferenceError, match="'/planner/twist'.*not set"):

@@ -4,7 +4,7 @@ Every object answers :meth:`SimObject.sdf`: the signed distance (m) of world poi
 surface, negative inside; the penetration of a point is ``max(-sdf, 0)``. The signed distance
 is 1-Lipschitz (exact for the primitives), which lets the pad model skip tactels that cannot
 touch. The contact pressure at a point of the pad is ``k · depth`` with ``k`` the per-area
-stiffness of the object in series with the pad's foam (see :mod:`tactile_bt.sim.sensor`). An
+stiffness of the object in series with the pad's foam (see :mod:`tactile_bt.sim.pad`). An
 object's ``stiffness`` is given in N/m, the force per metre of indentation over the reference
 contact area of the paper (40 tactels, :data:`CONTACT_REFERENCE_AREA_M2`). This per-area
 (Winkler) model makes soft objects deform: the deeper the pad presses, the larger the area

@@ -24,8 +24,8 @@ from tactile_bt import defaults
 from tactile_bt.sim.events import EventSchedule, ObjectEvent
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
-from tactile_bt.sim.sensor import SensorModel, SensorParams
-from tactile_bt.sim.mounts import MOUNT_FIELDS, MountError, MountSpec
+from tactile_bt.sim.pad import SensorModel, SensorParams
+from tactile_bt.robot.mounts import MOUNT_FIELDS, MountError, MountSpec
 from tactile_bt.sim.schema import (COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, NUMBER, POSITIVE, STR, ListOf,
                                    Range)
 from tactile_bt.sim.world import World
@@ -332,8 +332,8 @@ def build_scene(root: Located) -> Scene:
             where_ = section.value.get("type", section)
             raise where_.error(str(exc)) from None
     scene.objects = [_build_object(item, i, root.file) for i, item in enumerate(top.get("objects", []))]
-    if "scan_region" in top:  # what a surface scan sets out to cover (tactile_bt.scan_metrics)
-        from tactile_bt.scan_metrics import check_region
+    if "scan_region" in top:  # what a surface scan sets out to cover (tactile_bt.mission.accuracy)
+        from tactile_bt.mission.accuracy import check_region
 
         try:
             check_region(plain(root.value["scan_region"]))

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tactile_bt.sim.mounts import CartesianMount
-from tactile_bt.sim.sensor import SensorModel
+from tactile_bt.robot.mounts import CartesianMount
+from tactile_bt.sim.pad import SensorModel
 
 __all__ = ["CartesianMount", "World"]
 

@@ -1,0 +1,156 @@
+"""Mission outputs: report.json, log.npz, errors.png and contacts.ply; for a scan (a mission
+whose tree or run reconstructs a surface) also surface.ply and render.png."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from tactile_bt import defaults
+
+__all__ = ["OUTPUT_FILES", "OutputPathError", "prepare_output_dir", "plot_errors", "write_outputs", "write_ply", "read_ply_points"]
+
+#: Every file a mission may write into its output directory.
+OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "contacts.ply", "surface.ply", "render.png")
+
+
+class OutputPathError(ValueError):
+    """An output path that cannot be written (it is a file, or lies under one)."""
+
+
+def prepare_output_dir(out: str | Path) -> Path:
+    """Make ``out`` ready for a mission's outputs before the mission starts.
+
+    Creates the directory (and its parents) and removes the files an earlier mission left
+    there (:data:`OUTPUT_FILES` only; other files are kept), so the directory never mixes two
+    runs. Raises :class:`OutputPathError` naming the path when it is a file or lies under one,
+    or cannot be created.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputPathError(f"{out}: is a file, not a directory (choose another --out)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        parent = next((p for p in out.parents if p.exists() and not p.is_dir()), out.parent)
+        raise OutputPathError(f"{out}: cannot create the directory, {parent} is a file") from None
+    except OSError as exc:
+        raise OutputPathError(f"{out}: cannot create the directory ({exc.strerror})") from None
+    for name in OUTPUT_FILES:
+        stale = out / name
+        if stale.is_file() or stale.is_symlink():
+            stale.unlink()
+    return out
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def plot_errors(result, path: str | Path | None = None):
+    """Feature errors against mission time, like the paper's Figs. 8–10 and 12b.
+
+    Three panels: pressure error (in units of the target, the paper's p), COP error (px) and
+    orientation error (deg). The dashed line marks the end of the approach.
+    """
+    import matplotlib
+
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    log = result.log
+    t = log["t"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True, constrained_layout=True)
+    target = defaults.TARGET_PRESSURE_PA
+    ax = axes[0]
+    ax.plot(t, (log["pressure_raw_pa"] - target) / target, color="0.75", lw=0.6, label="raw")
+    ax.plot(t, log["error_pressure_pa"] / target, color="C0", lw=1.2, label="smoothed (controlled)")
+    ax.axhspan(-0.04, 0.04, color="C2", alpha=0.15, label="sensor noise level ±0.04")
+    ax.set_ylabel("pressure error\n(units of target 2 kPa)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[1]
+    ax.plot(t, log["error_cop_x_px"], color="C0", lw=1.0, label="x")
+    ax.plot(t, log["error_cop_y_px"], color="C1", lw=1.0, label="y")
+    ax.set_ylabel("COP error (px)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[2]
+    ax.plot(t, np.rad2deg(log["error_orientation_rad"]), color="C3", lw=1.0)
+    ax.set_ylabel("orientation error (deg)")
+    ax.set_xlabel("mission time (s)")
+    started = np.isfinite(log["error_pressure_pa"]) | np.isfinite(log["error_cop_x_px"])
+    if started.any():
+        t0 = t[int(np.argmax(started))]
+        for ax in axes:
+            ax.axvline(t0, color="0.4", ls="--", lw=0.8)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="k", lw=0.5)
+    report = result.report
+    fig.suptitle(f"{Path(str(report['tree'])).stem} on {Path(str(report['scene'])).stem}: "
+                 f"{report['status']}, seed {report['seed']}", fontsize=10)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+    return fig
+
+
+def write_ply(path: str | Path, data: np.ndarray, names=("x", "y", "z", "nx", "ny", "nz", "pressure", "t")) -> None:
+    """Write an ``(N, k)`` point array as a binary little-endian PLY with float properties."""
+    data = np.ascontiguousarray(data, dtype="<f4")
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(data)}"]
+    header += [f"property float {n}" for n in names[: data.shape[1]]]
+    header.append("end_header")
+    with open(path, "wb") as fh:
+        fh.write(("\n".join(header) + "\n").encode("ascii"))
+        fh.write(data.tobytes())
+
+
+def read_ply_points(path: str | Path) -> tuple[list[str], np.ndarray]:
+    """Read a PLY written by :func:`write_ply`: property names and the ``(N, k)`` array."""
+    raw = Path(path).read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    lines = raw[:end].decode("ascii").splitlines()
+    n = next(int(line.split()[2]) for line in lines if line.startswith("element vertex"))
+    names = [line.split()[2] for line in lines if line.startswith("property")]
+    return names, np.frombuffer(raw[end:], dtype="<f4", count=n * len(names)).reshape(n, len(names))
+
+
+def write_outputs(result, out: Path, render: bool = True) -> None:
+    """Write every output file of a mission into ``out``.
+
+    A scan (the report has ``reconstruction``) also gets ``surface.ply`` (the reconstructed
+    mesh, world frame, m) and, with ``render``, ``render.png`` (:func:`tactile_bt.mission.view.render_mission`,
+    off screen).
+    """
+    out = prepare_output_dir(out)
+    (out / "report.json").write_text(json.dumps(_jsonable(result.report), indent=2) + "\n")
+    np.savez_compressed(out / "log.npz", **result.log)
+    if len(result.contact_data):
+        write_ply(out / "contacts.ply", result.contact_data)
+    plot_errors(result, out / "errors.png")
+    surface = getattr(result, "surface", None)
+    if surface is not None and len(surface.faces):
+        from tactile_bt.contacts.reconstruct import write_surface
+
+        write_surface(out / "surface.ply", surface)
+    if render and "reconstruction" in result.report:
+        from tactile_bt.mission.view import render_mission
+
+        try:
+            render_mission(out, out / "render.png")
+        except Exception as exc:  # no OpenGL here: every other output is written, say so
+            warnings.warn(f"render.png not written: {type(exc).__name__}: {exc}", RuntimeWarning, stacklevel=2)

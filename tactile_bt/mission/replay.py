@@ -1,0 +1,134 @@
+"""Feed a recording back through perception and a tree: the same control loop as a mission, on
+recorded frames and poses instead of a simulator or a live sensor.
+
+A recording made by ``run_mission(..., record=FILE)`` or ``tactile-bt sensor record`` replays
+deterministically: the same recording and tree give the same features and twists, at any speed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import py_trees
+from py_trees.common import Status
+
+from tactile_bt import defaults
+from tactile_bt.sense.calibration import TactelCalibration
+
+__all__ = ["replay_mission", "ReplayError"]
+
+
+class ReplayError(ValueError):
+    """A replay cannot start: its calibration or pace is unusable; the message names which."""
+
+
+def replay_mission(tree, recording: str | Path, calibration: TactelCalibration | str | Path | None = None,
+                   speed: float | None = None, orientation_method: str = "moments", out: str | Path | None = None):
+    """Run ``tree`` on the frames of ``recording``; returns a :class:`~tactile_bt.mission.run.MissionResult`.
+
+    Parameters
+    ----------
+    tree : BehaviourTree or path to a YAML tree
+    recording : path
+        A chunked recording (:mod:`tactile_bt.sense.hardware.recording`).
+    calibration : TactelCalibration or path, optional
+        Raw counts → newtons. Default: ``<recording>.calibration.npz`` when it exists (written by
+        mission recordings), else the nominal characteristic, with a
+        :class:`~tactile_bt.sense.hardware.recording.RecordingWarning`.
+    speed : float, optional
+        ``None`` as fast as possible, ``1.0`` at the recorded pace, ``2.0`` twice as fast.
+        The results do not depend on it.
+
+    A torn last chunk is left out with a ``RecordingWarning``; ``report["warnings"]`` lists
+    every warning of the replay.  Raises :class:`~tactile_bt.sense.hardware.recording.RecordingError`
+    for an unreadable or empty recording and :class:`ReplayError` for an unusable calibration
+    or speed.
+    """
+    from tactile_bt.sense.hardware.recording import RecordingError, RecordingWarning, read_recording, torn_tail_message
+    from tactile_bt.tree.loader import load_tree
+    from tactile_bt.mission.run import ControlLoop, MissionLog, MissionResult, _failure_reason, calibration_path
+    from tactile_bt.mission.metrics import controlled_feature_metrics
+
+    if speed is not None and not (math.isfinite(speed) and speed > 0):
+        raise ReplayError(f"speed must be a finite number > 0 or None, got {speed}")
+    if not isinstance(tree, py_trees.trees.BehaviourTree):
+        tree = load_tree(tree)
+    if out is not None:  # before the replay: a path that cannot be written loses nothing
+        from tactile_bt.mission.outputs import prepare_output_dir
+
+        prepare_output_dir(out)
+    rec = read_recording(recording)
+    n = len(rec.timestamps)
+    if n == 0:
+        torn = "" if rec.torn_tail_offset is None else f" (the chunk at byte {rec.torn_tail_offset} is torn)"
+        raise RecordingError(f"{recording}: the recording holds no complete chunk{torn}")
+    notes = []
+    if rec.torn_tail_offset is not None:
+        notes.append(torn_tail_message(recording, rec.torn_tail_offset, n))
+    source = calibration
+    if calibration is None:
+        source = calibration_path(recording)
+        if not source.exists():
+            notes.append(f"{source} is missing: using the nominal tactel characteristic "
+                         f"(--calibration FILE chooses one)")
+            calibration = TactelCalibration.nominal(*rec.values.shape[1:])
+    if not isinstance(calibration, TactelCalibration):
+        try:
+            calibration = TactelCalibration.load(source)
+        except ValueError as exc:
+            raise ReplayError(str(exc)) from exc
+    if calibration.offset.shape != rec.values.shape[1:]:
+        name = "the calibration" if isinstance(source, TactelCalibration) else f"calibration {source}"
+        raise ReplayError(f"{name} holds {'x'.join(map(str, calibration.offset.shape))} tactels, "
+                          f"the recording {recording} {rec.rows}x{rec.cols}")
+    for note in notes:
+        warnings.warn(RecordingWarning(note), stacklevel=2)
+    t = rec.timestamps - rec.timestamps[0]
+    if "rate_hz" in rec.metadata:  # a mission recording: its exact control period
+        dt = 1.0 / float(rec.metadata["rate_hz"])
+    else:
+        dt = float(np.median(np.diff(t))) if n > 1 else 1.0 / defaults.RATE_HZ
+    loop = ControlLoop(tree, calibration, dt, orientation_method)
+    log = MissionLog(n)
+    status, reason, wall_start = "completed", "", time.perf_counter()
+    try:
+        for k in range(n):
+            if speed is not None:
+                delay = wall_start + t[k] / speed - time.perf_counter()
+                if delay > 0:
+                    time.sleep(delay)
+            pose = rec.poses[k] if np.all(np.isfinite(rec.poses[k])) else np.eye(4)
+            twist = loop.cycle(rec.values[k], pose, float(t[k]))
+            log.record(k, float(t[k]), loop, twist, pose)
+            if tree.root.status in (Status.SUCCESS, Status.FAILURE):
+                status = tree.root.status.value.lower()
+                reason = _failure_reason(tree.root) if tree.root.status == Status.FAILURE else ""
+                break
+    finally:
+        tree.interrupt()
+    wall = time.perf_counter() - wall_start
+    arrays = log.arrays()
+    metrics = controlled_feature_metrics(arrays)
+    report = {
+        "tree": getattr(tree, "source", tree.root.name),
+        "recording": str(recording),
+        "scene": rec.metadata.get("scene", ""),
+        "seed": rec.metadata.get("seed"),
+        "status": status,
+        "reason": reason,
+        "warnings": notes,
+        "sim_time_s": float(t[log.n - 1]) + dt,
+        "wall_time_s": wall,
+        "real_time_factor": (float(t[log.n - 1]) + dt) / wall if wall > 0 else float("inf"),
+        "ticks": log.n,
+        "metrics": metrics,
+        "contacts": len(loop.contacts),
+    }
+    result = MissionResult(report=report, log=arrays, contact_data=loop.contacts.data.copy())
+    if out is not None:
+        result.save(out)
+    return result

@@ -1,0 +1,336 @@
+"""The KUKA LWR 4 in joint-space compliance mode, carrying the tactile pad (paper Sec. V).
+
+The paper runs the arm "in joint-space compliance mode using a stiffness parameter of
+200 Nm/rad and a damping parameter of 0.2 Nm s/rad"; "the control basis framework maps
+Cartesian-space twists into joint-angle velocities, thus changing the equilibrium posture of the
+robot controller".  :class:`CompliantArm` models exactly that: the servo twist is turned into
+joint velocities (:meth:`LWR4Kinematics.resolved_rate`) that integrate the *equilibrium* posture
+``q_eq``, and the *actual* posture ``q`` obeys the joint impedance law
+
+    tau = K (q_eq - q) - D q_dot + J(q)^T w_ext = M(q) q_ddot,
+
+with ``w_ext`` the contact wrench ``[f; tau_O]`` in the global frame, torque about the global
+origin (the dual of the spatial twist: power ``= w . V_g``).
+
+Two ways to integrate it
+------------------------
+``mode="quasi_static"`` (default).  The link inertias of the real arm are unknown and contact
+stiffnesses reach 1e7 N/m, so the inertia is neglected: each step solves the *implicit Euler*
+step of the massless spring-damper,
+
+    K (q - q_eq) + (D / dt) (q - q_prev) - J(q)^T w(T_gs(q)) = 0,
+
+a nonlinear equation in ``q`` that is solved by a safeguarded Newton iteration (below).  With
+``D = 0`` this is the static equilibrium ``q = q_eq + K^-1 J^T w`` (:meth:`CompliantArm.settle`).
+Implicit Euler of a first-order system is unconditionally stable, whatever the contact stiffness
+and the step.
+
+``mode="dynamic"``.  Linearly implicit Euler of the second-order law with a diagonal joint-space
+inertia ``M`` (a rough guess by default, see :data:`DEFAULT_INERTIA`), the contact stiffness
+included in the implicit matrix.  Useful to study oscillations; note that with the paper's
+``D = 0.2 Nm s/rad`` the joints are almost undamped.  (KUKA's FRI specifies the joint damping as
+a dimensionless damping ratio; we take the paper's numbers at face value.)
+
+Equilibrium solver
+------------------
+The implicit step and :meth:`CompliantArm.settle` are solved by a safeguarded quasi-Newton
+iteration on the combined arm and contact stiffness, stable from 1e2 to 1e7 N/m; it lives in
+:mod:`tactile_bt.robot.equilibrium` (with :data:`WrenchFn`, :class:`SettleResult`,
+:func:`point_wrench` and :func:`bracket_stiffness`, which this module re-exports) and is
+described there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tactile_bt.robot.equilibrium import (
+    EquilibriumSolverMixin,
+    SettleResult,
+    WrenchFn,
+    _Source,
+    bracket_stiffness,
+    point_wrench,
+)
+from tactile_bt.robot.kinematics import LWR4Kinematics, PAD_SIZE_M, Q_READY
+
+__all__ = [
+    "DEFAULT_STIFFNESS",
+    "DEFAULT_DAMPING",
+    "DEFAULT_INERTIA",
+    "WrenchFn",
+    "SettleResult",
+    "CompliantArm",
+    "point_wrench",
+    "bracket_stiffness",
+]
+
+#: Joint stiffness of the compliance mode in N m/rad (paper Sec. V).
+DEFAULT_STIFFNESS = 200.0
+#: Joint damping of the compliance mode in N m s/rad (paper Sec. V).
+DEFAULT_DAMPING = 0.2
+#: Diagonal joint-space inertia in kg m^2 for ``mode="dynamic"``: a rough guess of the link-side
+#: inertia of the LWR in a bent posture (no published value); the quasi-static mode ignores it.
+DEFAULT_INERTIA = np.array([1.0, 1.0, 0.3, 0.3, 0.05, 0.05, 0.01])
+
+
+class CompliantArm(EquilibriumSolverMixin):
+    """KUKA LWR 4 under joint impedance control, with the tactile pad as fingertip.
+
+    Parameters
+    ----------
+    kinematics : LWR4Kinematics, optional
+        Kinematic model (default mount, base at the global origin if omitted).
+    q0 : (7,) array, optional
+        Initial posture in rad, both equilibrium and actual (default :data:`Q_READY`).
+    stiffness, damping : float or (7,) array
+        Joint stiffness ``K`` (N m/rad) and damping ``D`` (N m s/rad); paper: 200 and 0.2.
+    mode : {"quasi_static", "dynamic"}
+        How :meth:`step` integrates the compliance (module docstring).
+    inertia : (7,) array, optional
+        Diagonal joint inertia in kg m^2 for ``mode="dynamic"`` (:data:`DEFAULT_INERTIA`).
+    null_gain : float
+        Rate (1/s) at which the redundancy pulls the equilibrium posture back to ``q_rest``
+        (the initial posture), inside the null space of the task.
+    ik_damping, sigma_threshold : float
+        Damped-least-squares parameters of :meth:`LWR4Kinematics.resolved_rate` (m/rad).
+    max_step_m : float
+        Largest motion of any point of the pad per Newton iteration of the equilibrium solver (m).
+    tol : float
+        Joint-torque residual (N m) at which the equilibrium solver stops.
+    max_iter : int
+        Newton iteration budget per step.
+    """
+
+    def __init__(
+        self,
+        kinematics: LWR4Kinematics | None = None,
+        q0=None,
+        stiffness=DEFAULT_STIFFNESS,
+        damping=DEFAULT_DAMPING,
+        mode: str = "quasi_static",
+        inertia=None,
+        null_gain: float = 0.5,
+        ik_damping: float = 0.05,
+        sigma_threshold: float = 0.05,
+        max_step_m: float = 1e-3,
+        tol: float = 1e-4,
+        max_iter: int = 60,
+    ) -> None:
+        self.kin = LWR4Kinematics() if kinematics is None else kinematics
+        self.K = _per_joint(stiffness, "stiffness", positive=True)
+        self.D = _per_joint(damping, "damping", positive=False)
+        self.M = _per_joint(DEFAULT_INERTIA if inertia is None else inertia, "inertia", positive=True)
+        if mode not in ("quasi_static", "dynamic"):
+            raise ValueError(f"mode must be 'quasi_static' or 'dynamic', got {mode!r}")
+        self.mode = mode
+        self.null_gain = float(null_gain)
+        self.ik_damping = float(ik_damping)
+        self.sigma_threshold = float(sigma_threshold)
+        self.max_step_m = float(max_step_m)
+        self.tol = float(tol)
+        self.max_iter = int(max_iter)
+        #: Steps (m, rad) of the finite-difference contact stiffness, used when the contact
+        #: model does not return ``K_x``.  Small, so that the difference rarely straddles a kink
+        #: of a penalty contact (at 1e7 N/m a few newtons are a fraction of a micrometre).
+        self.fd_step = (1e-8, 1e-8)
+        #: Half diagonal of the pad (m), for the per-iteration motion cap.
+        self.pad_radius = float(np.sqrt(2.0)) * 0.5 * PAD_SIZE_M
+        self._H: np.ndarray | None = None  # quasi-Newton matrix carried between solves
+        self._H_Kd = np.zeros(7)
+        self._kin_cache: tuple | None = None
+        #: Default contact model of :meth:`step` and :meth:`move` (a :data:`WrenchFn`), e.g. set
+        #: by the world to the pad-object contact; ``None``: no contact.
+        self.contact: WrenchFn | None = None
+        self.reset(Q_READY if q0 is None else q0)
+
+    # ------------------------------------------------------------------ state
+    def reset(self, q0) -> None:
+        """Put the arm at rest at posture ``q0`` (rad, clipped into the limits), unloaded."""
+        q0 = self.kin.clip(self.kin._check_q(q0))
+        self.q_eq = q0.copy()
+        self.q = q0.copy()
+        self.q_rest = q0.copy()
+        self.q_dot = np.zeros(7)
+        self.wrench_g = np.zeros(6)
+        self.last_solve: SettleResult | None = None
+        self._H = None
+        self._kin_cache = None
+        self._T = self.kin.fk(self.q)
+
+    @property
+    def T_gs(self) -> np.ndarray:
+        """Actual sensor pose (4x4, global frame): what forward kinematics of the measured joints gives."""
+        return self._T.copy()
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Alias of :attr:`T_gs` (the interface of the ideal ``CartesianMount``)."""
+        return self._T.copy()
+
+    @property
+    def T_gs_eq(self) -> np.ndarray:
+        """Sensor pose of the equilibrium posture (where the pad would be without contact)."""
+        return self.kin.fk(self.q_eq)
+
+    @property
+    def joint_torque(self) -> np.ndarray:
+        """Spring torque ``K (q_eq - q)`` in N m (what the joint torque sensors would read, minus damping)."""
+        return self.K * (self.q_eq - self.q)
+
+    # ------------------------------------------------------------------ commands
+    def joint_velocities(self, twist_g, dt: float | None = None) -> np.ndarray:
+        """Resolved-rate joint velocities (rad/s) for a spatial sensor twist, at the equilibrium posture.
+
+        Parameters
+        ----------
+        twist_g : (6,) array
+            ``V_g = Ad(T_gs) V_s`` (m/s, rad/s).
+        dt : float, optional
+            Step length (s) for the joint-limit check.
+        """
+        null = self.null_gain * (self.q_rest - self.q_eq)
+        return self.kin.resolved_rate(
+            self.q_eq, twist_g, dt=dt, damping=self.ik_damping,
+            sigma_threshold=self.sigma_threshold, q_dot_null=null,
+        )
+
+    def move(self, twist_g, dt: float, wrench_fn: WrenchFn | None = None, wrench_g=None) -> np.ndarray:
+        """Follow a spatial twist for ``dt`` s: :meth:`joint_velocities` then :meth:`step`.
+
+        Same call as the ideal ``CartesianMount.move(twist_g, dt)`` of :mod:`tactile_bt.sim.world`,
+        so the arm can stand in for it (with :attr:`contact` set, contact forces deflect it).
+
+        Returns
+        -------
+        (4, 4) ndarray
+            The new actual sensor pose ``T_gs``.
+        """
+        return self.step(dt, self.joint_velocities(twist_g, dt), wrench_g=wrench_g, wrench_fn=wrench_fn)
+
+    def step(self, dt: float, q_dot_cmd=None, wrench_g=None, wrench_fn: WrenchFn | None = None) -> np.ndarray:
+        """Advance the arm by ``dt`` seconds.
+
+        Parameters
+        ----------
+        dt : float
+            Step in s (> 0).
+        q_dot_cmd : (7,) array, optional
+            Commanded joint velocities (rad/s) that move the equilibrium posture; clipped so
+            ``q_eq`` stays inside the joint limits.  ``None``: hold.
+        wrench_g : (6,) array, optional
+            Constant external wrench ``[f; tau_O]`` (N, N m about the global origin).
+        wrench_fn : callable, optional
+            Contact model ``T_gs -> wrench`` or ``(wrench, K_x)`` (see :data:`WrenchFn`),
+            evaluated at the *new* pose (implicit); :attr:`contact` if omitted.  Added to
+            ``wrench_g`` if both are given.
+
+        Returns
+        -------
+        (4, 4) ndarray
+            The new actual sensor pose ``T_gs``.
+        """
+        if not (np.isfinite(dt) and dt > 0.0):
+            raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+        if q_dot_cmd is not None:
+            qd = np.asarray(q_dot_cmd, float)
+            if qd.shape != (7,) or not np.all(np.isfinite(qd)):
+                raise ValueError(f"q_dot_cmd must be 7 finite numbers, got {q_dot_cmd!r}")
+            self.q_eq = self.kin.clip(self.q_eq + dt * qd)
+        src = _Source(self.contact if wrench_fn is None else wrench_fn, wrench_g)
+        q_prev = self.q.copy()
+        if self.mode == "quasi_static":
+            res = self._solve(src, self.q_eq, q_prev, self.D / dt, q_prev, self.tol, self.max_iter)
+        else:
+            res = self._dynamic_step(src, dt)
+        self._accept(res)
+        self.q_dot = (self.q - q_prev) / dt
+        return self.T_gs
+
+    def settle(
+        self,
+        q_eq=None,
+        wrench_fn: WrenchFn | None = None,
+        tol: float | None = None,
+        max_iter: int | None = None,
+        q0=None,
+        wrench_g=None,
+        update_state: bool = True,
+    ) -> SettleResult:
+        """Static equilibrium ``K (q - q_eq) = J(q)^T w(T_gs(q))`` under a contact model.
+
+        Stable for any contact stiffness (tested 1e2 to 1e7 N/m): safeguarded Newton on the
+        combined arm + contact stiffness (:mod:`tactile_bt.robot.equilibrium`).
+
+        Parameters
+        ----------
+        q_eq : (7,) array, optional
+            Equilibrium posture in rad (default: the arm's).
+        wrench_fn : callable, optional
+            Contact model, see :data:`WrenchFn` (default :attr:`contact`; both ``None``: unloaded).
+        tol : float, optional
+            Joint-torque residual in N m (default: the arm's ``tol``).
+        max_iter : int, optional
+            Newton iteration budget (default: 200, enough to push a pad that starts 5 cm
+            deep in a rigid object back out in 1 mm steps).
+        q0 : (7,) array, optional
+            Initial guess (default: the current actual posture, a warm start).
+        wrench_g : (6,) array, optional
+            Extra constant wrench (N, N m about the global origin).
+        update_state : bool
+            Store the result as the arm's actual posture (and ``q_eq``).
+
+        Returns
+        -------
+        SettleResult
+        """
+        q_eq = self.q_eq.copy() if q_eq is None else self.kin.clip(self.kin._check_q(q_eq))
+        start = self.q.copy() if q0 is None else self.kin._check_q(q0).copy()
+        src = _Source(self.contact if wrench_fn is None else wrench_fn, wrench_g)
+        res = self._solve(src, q_eq, start, np.zeros(7), start,
+                          self.tol if tol is None else float(tol),
+                          200 if max_iter is None else int(max_iter))
+        if update_state:
+            self.q_eq = q_eq
+            self._accept(res)
+            self.q_dot = np.zeros(7)
+        return res
+
+    # ------------------------------------------------------------------ internals
+    def _accept(self, res: SettleResult) -> None:
+        self.q = res.q
+        self._T = res.T_gs
+        self.wrench_g = res.wrench_g
+        self.last_solve = res
+
+    def _dynamic_step(self, src: _Source, dt: float) -> SettleResult:
+        """Linearly implicit Euler of ``M q_ddot = K (q_eq - q) - D q_dot + J^T w``."""
+        q, qd = self.q, self.q_dot
+        T, J = self.kin.pose_and_jacobian(q)
+        w, Kx = src(T)
+        if Kx is None:
+            Kx = self._fd_stiffness(src, T, w)
+        H = np.diag(self.K) - bracket_stiffness(J, w) + J.T @ Kx @ J
+        A = np.diag(self.M + dt * self.D) + dt * dt * H
+        b = self.M * qd + dt * (self.K * (self.q_eq - q) + J.T @ w)
+        try:
+            qd_new = np.linalg.solve(A, b)
+        except np.linalg.LinAlgError:
+            qd_new = np.linalg.lstsq(A, b, rcond=None)[0]
+        if not np.all(np.isfinite(qd_new)):
+            qd_new = np.zeros(7)
+        q_new = q + dt * qd_new
+        T_new, J_new = self.kin.pose_and_jacobian(q_new)
+        w_new, _ = src(T_new)
+        r = self.K * (q_new - self.q_eq) - J_new.T @ w_new
+        return SettleResult(q_new, T_new, w_new, float(np.max(np.abs(r))), 1, src.calls, True)
+
+
+def _per_joint(value, name: str, positive: bool) -> np.ndarray:
+    """A scalar or 7 values as a (7,) array, validated."""
+    arr = np.broadcast_to(np.asarray(value, float), (7,)).copy()
+    bad = np.any(arr <= 0.0) if positive else np.any(arr < 0.0)
+    if not np.all(np.isfinite(arr)) or bad:
+        kind = "positive" if positive else "non-negative"
+        raise ValueError(f"{name} must be {kind} and finite, got {value!r}")
+    return arr

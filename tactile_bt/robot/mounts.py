@@ -1,0 +1,178 @@
+"""What carries the pad: an ideal Cartesian mount, or the compliant KUKA LWR 4 of the paper.
+
+Scene section ``mount:``
+
+=============  ========================================  =====================================
+field          meaning                                   default
+=============  ========================================  =====================================
+``type``       ``cartesian`` (ideal) or ``lwr4`` (arm)    ``cartesian``
+``position``   start position of the pad centre (m)       ``[0, 0, 0.05]``
+``rpy_deg``    start orientation, extrinsic x-y-z (deg);  ``[180, 0, 0]``
+               ``[180, 0, yaw]`` points the pad down
+``base``       lwr4: arm base position (m); by default    start position minus the pad's
+               placed so the start is the arm's ready      offset in the ready posture
+               posture
+``stiffness``  lwr4: joint stiffness (N m/rad)            200 (paper Sec. V)
+``damping``    lwr4: joint damping (N m s/rad)            0.2 (paper Sec. V)
+=============  ========================================  =====================================
+
+The ideal mount follows the commanded twist exactly. The arm turns it into joint velocities by
+damped resolved rates; they move its equilibrium posture, and contact forces deflect it
+through the joint stiffness (:class:`tactile_bt.robot.arm.CompliantArm`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tactile_bt.sim.schema import COORD, NUMBER, STR, ListOf, Range
+from tactile_bt.control.spatial import integrate_spatial, make_pose
+
+__all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_FIELDS", "MOUNT_TYPES"]
+
+MOUNT_TYPES = ("cartesian", "lwr4")
+#: Field → kind, for the scene validation in :mod:`tactile_bt.sim.scene`. The joint stiffness
+#: and damping bounds are far beyond the LWR 4's (a few thousand N m/rad); they only keep the
+#: arm's contact solve away from overflows.
+MOUNT_FIELDS = {
+    "type": STR,
+    "position": ListOf(3, COORD),
+    "rpy_deg": ListOf(3, NUMBER),
+    "base": ListOf(3, COORD),
+    "stiffness": Range(0.0, 1e8, lo_open=True, unit="N m/rad"),
+    "damping": Range(0.0, 1e6, unit="N m s/rad"),
+}
+
+
+class MountError(ValueError):
+    """The mount cannot be built as specified (the arm cannot reach the start pose).
+
+    ``field`` names the ``mount.`` field most likely to blame (``base`` or ``rpy_deg``).
+    """
+
+    def __init__(self, message: str, field: str = "") -> None:
+        super().__init__(message)
+        self.field = field
+
+
+class CartesianMount:
+    """An ideal Cartesian mount: the pad follows the commanded base-frame twist exactly.
+
+    Parameters
+    ----------
+    pose : (4, 4) array
+        Initial ``T_gs`` (sensor frame in the base frame).
+    """
+
+    def __init__(self, pose: np.ndarray) -> None:
+        self.pose = np.array(pose, dtype=float)
+
+    def attach(self, contact) -> None:
+        """An ideal mount feels no contact force."""
+
+    def move(self, twist_g: np.ndarray, dt: float) -> None:
+        """Integrate the spatial twist ``twist_g`` ([v; ω], m/s, rad/s) for ``dt`` seconds."""
+        self.pose = integrate_spatial(self.pose, twist_g, dt)
+
+
+class ArmMount:
+    """The pad on a compliant KUKA LWR 4: same interface as :class:`CartesianMount`.
+
+    Parameters
+    ----------
+    pose : (4, 4) array
+        Start pose ``T_gs`` of the pad; the arm is put there by inverse kinematics.
+    base : (3,) array or None
+        Arm base position in the world (m); None places it so that ``pose`` is reached from
+        the ready posture.
+    stiffness, damping : float
+        Joint stiffness (N m/rad) and damping (N m s/rad).
+    """
+
+    def __init__(self, pose: np.ndarray, base=None, stiffness: float = 200.0, damping: float = 0.2) -> None:
+        from tactile_bt.robot.arm import CompliantArm
+        from tactile_bt.robot.kinematics import Q_READY, LWR4Kinematics
+
+        kin = LWR4Kinematics()
+        if base is None:
+            base = np.asarray(pose[:3, 3]) - kin.fk(Q_READY)[:3, 3]
+        kin.base = make_pose(None, base)
+        try:
+            q0 = kin.ik_pose(np.asarray(pose, dtype=float), q0=Q_READY)
+        except ValueError as exc:
+            raise MountError(f"mount: the arm cannot reach the start pose: {exc}") from None
+        # tol: joint-torque residual of the contact solve, 1e-3 N m ≈ a few µm at the pad.
+        self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping, tol=1e-3)
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Actual ``T_gs`` (deflected by contact forces)."""
+        return self.arm.pose
+
+    def joint_angles(self) -> np.ndarray:
+        """Actual joint angles (rad), logged by the mission as ``joints_rad``."""
+        return self.arm.q.copy()
+
+    def attach(self, contact) -> None:
+        """Let ``contact(T_gs) -> (wrench_g, K_x)`` deflect the arm."""
+        self.arm.contact = contact
+
+    def move(self, twist_g: np.ndarray, dt: float) -> None:
+        """Resolved rates for ``twist_g``, then one compliant step of ``dt`` seconds."""
+        self.arm.move(twist_g, dt)
+
+
+@dataclass
+class MountSpec:
+    """A validated ``mount:`` section; :meth:`build` makes a fresh mount for each world."""
+
+    type: str = "cartesian"
+    position: tuple = (0.0, 0.0, 0.05)
+    rpy_deg: tuple = (180.0, 0.0, 0.0)
+    base: tuple | None = None
+    stiffness: float = 200.0
+    damping: float = 0.2
+    pose: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        if self.type not in MOUNT_TYPES:
+            raise ValueError(f"mount.type: unknown mount {self.type!r}; valid: {', '.join(MOUNT_TYPES)}")
+        self.pose = make_pose(Rotation.from_euler("xyz", self.rpy_deg, degrees=True), self.position)
+
+    def build(self):
+        """A fresh mount at the start pose.
+
+        Raises
+        ------
+        MountError
+            When the arm cannot reach the start pose; the message gives the pose, the base and
+            the fields to change.
+        """
+        if self.type == "lwr4":
+            try:
+                return ArmMount(self.pose, self.base, self.stiffness, self.damping)
+            except MountError as exc:
+                raise self._unreachable(exc) from None
+        return CartesianMount(self.pose)
+
+    def _unreachable(self, exc: MountError) -> MountError:
+        from tactile_bt.robot.kinematics import Q_READY, LWR4Kinematics
+
+        base = np.asarray(self.pose[:3, 3]) - LWR4Kinematics().fk(Q_READY)[:3, 3] if self.base is None else self.base
+        reason = str(exc).split(": ", 2)[-1]
+        where_ = (f"the arm cannot reach the start pose (mount.position {_fmt(self.position)} m, "
+                  f"mount.rpy_deg {_fmt(self.rpy_deg)}) from its base at {_fmt(base)} m, "
+                  f"{np.linalg.norm(np.subtract(self.position, base)):.3g} m away ({reason})")
+        if self.base is not None:
+            return MountError(f"mount.base: {where_}; move mount.base within reach of mount.position, or leave "
+                              f"mount.base out to place the arm so that the start pose is its ready posture",
+                              "base")
+        return MountError(f"mount.rpy_deg: {where_}; change mount.rpy_deg ([180, 0, yaw] points the pad down)",
+                          "rpy_deg")
+
+
+def _fmt(v) -> str:
+    return "[" + ", ".join(f"{float(x):.4g}" for x in v) + "]"

@@ -1,0 +1,69 @@
+"""py_trees leaves for every tactile servoing primitive, and the registry the YAML loader uses.
+
+Every class takes typed keyword parameters with defaults, units in their names (``target_pa``,
+``speed_mps``, ``grace_s``); the YAML node types below map to these classes, so a tree built in
+Python and one loaded from YAML are the same objects.
+"""
+
+from tactile_bt.tree.behaviours.base import NAMESPACE, ServoLeaf, TactileBehaviour
+from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
+from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
+from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
+from tactile_bt.tree.parameters import BlackboardReferenceError, bind_blackboard
+from tactile_bt.tree.behaviours.record import ContactCloud, RecordContacts
+from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
+
+#: YAML node type → leaf class.
+LEAVES = {
+    "approach": Approach,
+    "force_hold": ForceHold,
+    "centre": Centre,
+    "roll": Roll,
+    "align_edge": AlignEdge,
+    "tactile_servo": TactileServo,
+    "guided_slide": GuidedSlide,
+    "record_contacts": RecordContacts,
+    "scan_direction": ScanDirection,
+    "stripe_end": StripeEnd,
+    "coverage_stalled": CoverageStalled,
+    "contact_lost": ContactLost,
+    "force_limit": ForceLimit,
+}
+#: YAML node type → decorator class (first argument: the child).
+DECORATORS = {
+    "mission_timeout": MissionTimeout,
+    "retry": Retry,
+    "repeat": Repeat,
+    "inverter": Inverter,
+    "oneshot": OneShot,
+}
+
+__all__ = [
+    "NAMESPACE",
+    "TactileBehaviour",
+    "ServoLeaf",
+    "Approach",
+    "ForceHold",
+    "Centre",
+    "Roll",
+    "AlignEdge",
+    "TactileServo",
+    "GuidedSlide",
+    "RecordContacts",
+    "ContactCloud",
+    "ScanDirection",
+    "StripeEnd",
+    "CoverageStalled",
+    "ContactLost",
+    "ForceLimit",
+    "MissionTimeout",
+    "Retry",
+    "Repeat",
+    "Inverter",
+    "OneShot",
+    "BlackboardReferenceError",
+    "bind_blackboard",
+    "LEAVES",
+    "DECORATORS",
+]

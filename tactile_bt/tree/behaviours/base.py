@@ -1,0 +1,312 @@
+"""Shared machinery of the tactile leaves: blackboard keys, the mission clock and the servo base.
+
+Every leaf reads the cycle's data from the blackboard namespace ``/tactile``:
+
+=================  ==================================================================
+key                content
+=================  ==================================================================
+``features``       smoothed :class:`~tactile_bt.perception.features.ContactFeatures` (paper Sec. V)
+``features_raw``   the same before smoothing
+``time``           mission clock in s (never wall time)
+``dt``             control period in s
+``command``        the cycle's :class:`~tactile_bt.control.servo.ServoCommand`
+``pose``           ``T_gs``, 4x4 pose of the sensor frame in the base frame
+``contacts``       the mission's :class:`~tactile_bt.tree.behaviours.record.ContactCloud`
+=================  ==================================================================
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from tactile_bt import defaults
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
+from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian
+
+__all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "cycle_writer"]
+
+NAMESPACE = "/tactile"
+KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts")
+_STORAGE = py_trees.blackboard.Blackboard.storage
+_ZERO_TWIST = (0.0,) * 6
+_FEATURES, _FEATURES_RAW, _TIME, _POSE = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose"))
+
+#: Name and scale of the logged error of each feature component (metric units: Pa, px, rad).
+METRIC_OF_COMPONENT = {
+    0: ("cop_x_px", 1.0 / defaults.PITCH_M),
+    1: ("cop_y_px", 1.0 / defaults.PITCH_M),
+    2: ("pressure_pa", 1.0),
+    3: ("orientation_rad", 1.0),
+}
+
+
+def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | None = None):
+    """A blackboard client that owns the ``/tactile`` keys, with the mission's constant objects
+    (cycle command, contact cloud, control period in s) and an initial pose written.
+
+    The mission loop and :class:`tactile_bt.testing.LeafHarness` both start from it.
+    """
+    writer = py_trees.blackboard.Client(name=name, namespace=NAMESPACE)
+    for key in KEYS:
+        writer.register_key(key=key, access=Access.WRITE)
+    writer.command = command
+    writer.contacts = contacts
+    writer.dt = float(dt)
+    writer.time = 0.0
+    writer.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
+    writer.features = writer.features_raw = None
+    return writer
+
+
+class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
+    """A py_trees leaf with read access to the cycle data of the ``/tactile`` blackboard.
+
+    Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
+    ``"orientation"``); the mission computes only what the running leaves use.
+
+    Parameters
+    ----------
+    name : str
+        Name of the node: shown in the tree display, and the source of the twist part it adds.
+    """
+
+    uses: frozenset[str] = frozenset()
+    writes: tuple[str, ...] = ()
+    #: Parameters that shape the leaf at construction and so cannot follow a blackboard key.
+    fixed_parameters: frozenset[str] = frozenset({"name"})
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name=name)
+        self.bb = self.attach_blackboard_client(name=name, namespace=NAMESPACE)
+        for key in KEYS:
+            access = Access.WRITE if key in self.writes else Access.READ
+            self.bb.register_key(key=key, access=access)
+
+    # Hot-path reads. The keys are registered with the client above (so py_trees shows who
+    # reads what); the per-cycle values are read straight from the blackboard's storage, which
+    # skips the client's access bookkeeping (several µs per read, every 4 ms cycle).
+    @property
+    def features(self):
+        """Smoothed :class:`~tactile_bt.perception.features.ContactFeatures` of this cycle."""
+        return _STORAGE[_FEATURES]
+
+    @property
+    def features_raw(self):
+        """Unsmoothed features of this cycle."""
+        return _STORAGE[_FEATURES_RAW]
+
+    @property
+    def now(self) -> float:
+        """Mission time in s."""
+        return _STORAGE[_TIME]
+
+    @property
+    def pose(self) -> np.ndarray:
+        """``T_gs`` of this cycle."""
+        return _STORAGE[_POSE]
+
+    def set_parameter(self, name: str, value) -> None:
+        """Change parameter ``name`` (already checked against its type) between runs.
+
+        Blackboard references call this when the leaf starts; subclasses override it for
+        parameters with derived state or range checks, and their ``__init__`` goes through the
+        same checks.
+        """
+        if name in self.fixed_parameters:
+            raise ValueError(f"{self.name}: {name} is fixed at construction")
+        setattr(self, name, value)
+
+    def setup(self, **kwargs) -> None:
+        """Bind the mission's constant objects: the control period and the cycle command.
+
+        The mission (or :mod:`tactile_bt.testing`) writes them before calling ``tree.setup()``.
+        """
+        self.dt = float(self.bb.dt)
+        self.command = self.bb.command
+
+
+class ServoLeaf(TactileBehaviour):
+    """Base of every servo primitive: PID on some feature components, one part of Eq. 3.
+
+    A subclass sets ``components`` (indices into Δf = [Δx, Δy, Δp, Δα]) and ``rows`` (the twist
+    rows it drives, i.e. the ones of its projection P_i), and implements :meth:`targets`. While
+    RUNNING the leaf adds ``P_i · J⁻¹ · u`` to the cycle's command. With ``converge`` set it
+    succeeds once every controlled error stays inside ``band`` for ``dwell_s`` seconds;
+    otherwise it runs until its parent stops it.
+
+    Parameters
+    ----------
+    kp, ki, kd : float or list of float
+        PID gains per controlled component (see the subclass for units).
+    output_limit : float or list of float
+        Largest command per component (m/s for positions and force, rad/s for angles).
+    converge : bool
+        Succeed once the error stays inside ``band`` for ``dwell_s``; otherwise run until the
+        parent stops the leaf.
+    band : float or list of float
+        Convergence band per component, in the component's error unit (m, Pa or rad).
+    dwell_s : float
+        Time the errors must stay inside ``band`` (s, mission clock).
+    roll_radius : float
+        Rolling radius r of the rows ωx = +Δy/r, ωy = −Δx/r of J⁻¹ (m).
+    """
+
+    components: tuple[int, ...] = ()
+    rows: tuple[int, ...] = ()
+    #: Units of the parameters whose names carry none (gains, limits, band), per subclass.
+    parameter_units: dict[str, str] = {}
+    #: Admissible values (see :mod:`tactile_bt.tree.parameters`); an output limit of inf
+    #: means no limit.
+    parameter_bounds = {"kp": NON_NEGATIVE, "ki": NON_NEGATIVE, "kd": NON_NEGATIVE,
+                        "output_limit": POSITIVE_OR_INF, "band": POSITIVE, "dwell_s": NON_NEGATIVE,
+                        "roll_radius": POSITIVE}
+    fixed_parameters = frozenset({"name", "roll_radius"})
+
+    def __init__(
+        self,
+        name: str,
+        kp,
+        ki=0.0,
+        kd=0.0,
+        output_limit=np.inf,
+        converge: bool = False,
+        band=np.inf,
+        dwell_s: float = 0.5,
+        roll_radius: float = 0.05,
+    ) -> None:
+        super().__init__(name)
+        n = len(self.components)
+        self.pid = self._make_pid(kp, ki, kd, output_limit)
+        P = np.zeros((6, 6))
+        P[list(self.rows), list(self.rows)] = 1.0
+        # Columns of P·J⁻¹ for this leaf's components: a 6×n map from u to the twist part.
+        self._map = (P @ inverse_task_jacobian(roll_radius))[:, list(self.components)]
+        # The same map as (row, coefficient) pairs per component, for the per-cycle hot path.
+        self._rows_of = [[(r, float(self._map[r, j])) for r in range(6) if self._map[r, j] != 0.0]
+                         for j in range(n)]
+        # Components with no row in P·J⁻¹ are not controlled (e.g. a tactile_servo whose P
+        # leaves them out): they neither gate the leaf on NaN nor appear in the error log.
+        self._active = [j for j in range(n) if self._rows_of[j]]
+        self._metrics = [METRIC_OF_COMPONENT[c] for c in self.components]
+        self.converge = bool(converge)
+        self.set_parameter("band", band)
+        self.set_parameter("dwell_s", dwell_s)
+        self._inside_since: float | None = None
+        self.last_error = [math.nan] * n
+        self._last_twist = _ZERO_TWIST
+
+    def _make_pid(self, kp, ki, kd, output_limit) -> PID:
+        n = len(self.components)
+        gains = {}
+        for label, value in (("kp", kp), ("ki", ki), ("kd", kd), ("output_limit", output_limit)):
+            try:
+                array = np.broadcast_to(np.asarray(value, dtype=float), (n,))
+            except ValueError:
+                raise ValueError(f"{self.name}: {label} must be one number or {n} numbers "
+                                 f"(one per controlled component), got {value!r}") from None
+            if np.any(np.isnan(array)) or np.any(array < 0):
+                raise ValueError(f"{self.name}: {label} must not be negative, got {value!r}")
+            gains[label] = array
+        return PID(gains["kp"], gains["ki"], gains["kd"], gains["output_limit"])
+
+    def set_parameter(self, name: str, value) -> None:
+        """Gains (``kp``, ``ki``, ``kd``, ``output_limit``), ``band``, ``dwell_s`` and
+        ``converge`` as well as the subclass's targets."""
+        n = len(self.components)
+        if name in ("kp", "ki", "kd", "output_limit"):
+            pid = self.pid
+            gains = {"kp": pid.kp, "ki": pid.ki, "kd": pid.kd, "output_limit": pid.output_limit}
+            gains[name] = value
+            self.pid = self._make_pid(**gains)
+        elif name == "band":
+            try:
+                band = np.broadcast_to(np.asarray(value, dtype=float), (n,))
+            except ValueError:
+                raise ValueError(f"{self.name}: band must be one number or {n} numbers, got {value!r}") from None
+            if np.any(np.isnan(band)) or np.any(band < 0):
+                raise ValueError(f"{self.name}: band must not be negative, got {value!r}")
+            self.band = [float(b) for b in band]
+        elif name == "dwell_s":
+            if not value >= 0:
+                raise ValueError(f"{self.name}: dwell_s must not be negative, got {value!r}")
+            self.dwell_s = float(value)
+        elif name == "converge":
+            self.converge = bool(value)
+        else:
+            super().set_parameter(name, value)
+
+    @property
+    def last_twist(self) -> np.ndarray:
+        """The twist part ``P_i · J⁻¹ · u`` this leaf added in its last tick (sensor frame)."""
+        return np.array(self._last_twist, dtype=float)
+
+    # Formatting a message every 4 ms cycle would cost more than the control law, so the
+    # message of a tracking leaf is built only when somebody reads it.
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return self._format_error()
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def _format_error(self) -> str:
+        return "error " + ", ".join(
+            f"{METRIC_OF_COMPONENT[c][0]}={-e * METRIC_OF_COMPONENT[c][1]:+.3g}"
+            for c, e in zip(self.components, self.last_error)
+        )
+
+    # -- to be provided by subclasses -------------------------------------------------------
+    def targets(self) -> tuple[tuple[float, float], float, float]:
+        """``(target_cop (m, m), target_pressure (Pa), target_orientation (rad))``."""
+        raise NotImplementedError
+
+    # -- py_trees life cycle ----------------------------------------------------------------
+    def initialise(self) -> None:
+        self.pid.reset()
+        self._inside_since = None
+        self._last_twist = _ZERO_TWIST
+
+    def update(self) -> Status:
+        f = _STORAGE[_FEATURES]
+        cop, pressure, alpha = self.targets()
+        full = feature_error(f, cop, pressure, alpha)
+        error = [full[c] for c in self.components]
+        self.last_error = error
+        command = self.command
+        finite = True
+        for j in self._active:
+            e = error[j]
+            metric, scale = self._metrics[j]
+            command.errors[metric] = -e * scale  # logged as measured − target, metric units
+            finite = finite and e == e
+        if not finite:
+            self._last_twist = _ZERO_TWIST
+            self._inside_since = None
+            self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
+            return Status.RUNNING
+        u = self.pid.update(error, self.dt)
+        twist = [0.0] * 6
+        for rows, uj in zip(self._rows_of, u):
+            for r, coefficient in rows:
+                twist[r] += coefficient * uj
+        self._last_twist = twist
+        command.add(self.name, twist)
+        self._feedback = None  # formatted on demand from last_error (see feedback_message)
+        if self.converge:
+            band = self.band
+            if all(abs(error[j]) <= band[j] for j in self._active):
+                if self._inside_since is None:
+                    self._inside_since = self.now
+                if self.now - self._inside_since >= self.dwell_s:
+                    self._feedback = self._format_error() + " (converged)"
+                    return Status.SUCCESS
+            else:
+                self._inside_since = None
+        return Status.RUNNING

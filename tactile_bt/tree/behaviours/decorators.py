@@ -1,0 +1,122 @@
+"""py_trees decorators with typed, defaulted parameters, for YAML and Python alike.
+
+They are py_trees' own :mod:`py_trees.decorators` (``Retry``, ``Repeat``, ``Inverter``,
+``OneShot``) with the child first and keyword parameters that carry types and defaults, so the
+loader can check them like the leaves. None of them reads wall time; for a time limit use
+:class:`~tactile_bt.tree.behaviours.guards.MissionTimeout` (mission clock).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import py_trees
+from py_trees.common import OneShotPolicy
+
+from tactile_bt.tree.parameters import Bound, BoundedParameters
+
+__all__ = ["Retry", "Repeat", "Inverter", "OneShot", "ONESHOT_POLICIES"]
+
+#: YAML spelling of the oneshot policies.
+ONESHOT_POLICIES = {
+    "on_completion": OneShotPolicy.ON_COMPLETION,
+    "on_successful_completion": OneShotPolicy.ON_SUCCESSFUL_COMPLETION,
+}
+
+
+class Retry(BoundedParameters, py_trees.decorators.Retry):
+    """Restart a failing child: a child FAILURE becomes RUNNING (and the child starts again on
+    the next tick) until it has failed ``num_failures`` times; then FAILURE. SUCCESS passes.
+
+    Parameters
+    ----------
+    child : py_trees.behaviour.Behaviour
+        The decorated node (YAML: under ``child``).
+    name : str
+        Name of the node.
+    num_failures : int
+        Failures allowed, the last one included (>= 1; 1 = no retry).
+    """
+
+    fixed_parameters = frozenset({"name"})
+    parameter_bounds = {"num_failures": Bound(1)}
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "retry", num_failures: int = 3) -> None:
+        if num_failures < 1:
+            raise ValueError(f"{name}: num_failures must be at least 1, got {num_failures}")
+        super().__init__(name=name, child=child, num_failures=int(num_failures))
+
+    def set_parameter(self, name: str, value) -> None:
+        if name != "num_failures" or value < 1:
+            raise ValueError(f"{self.name}: {name} must be an integer >= 1, got {value}")
+        self.num_failures = int(value)
+
+
+class Repeat(BoundedParameters, py_trees.decorators.Repeat):
+    """Run a child again after each SUCCESS until it has succeeded ``num_success`` times; then
+    SUCCESS. A child FAILURE is FAILURE at once.
+
+    Parameters
+    ----------
+    child : py_trees.behaviour.Behaviour
+        The decorated node (YAML: under ``child``).
+    name : str
+        Name of the node.
+    num_success : int
+        Successes needed (>= 1), or -1 to repeat forever.
+    """
+
+    fixed_parameters = frozenset({"name"})
+    parameter_bounds = {"num_success": Bound(1, also=(-1,))}
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "repeat", num_success: int = 2) -> None:
+        if num_success < 1 and num_success != -1:
+            raise ValueError(f"{name}: num_success must be at least 1 (or -1 for forever), got {num_success}")
+        super().__init__(name=name, child=child, num_success=int(num_success))
+
+    def set_parameter(self, name: str, value) -> None:
+        if name != "num_success" or (value < 1 and value != -1):
+            raise ValueError(f"{self.name}: {name} must be an integer >= 1 or -1, got {value}")
+        self.num_success = int(value)
+
+
+class Inverter(py_trees.decorators.Inverter):
+    """Swap the child's SUCCESS and FAILURE; RUNNING passes through.
+
+    Parameters
+    ----------
+    child : py_trees.behaviour.Behaviour
+        The decorated node (YAML: under ``child``).
+    name : str
+        Name of the node.
+    """
+
+    fixed_parameters = frozenset({"name"})
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "inverter") -> None:
+        super().__init__(name=name, child=child)
+
+
+class OneShot(py_trees.decorators.OneShot):
+    """Run the child to completion once; afterwards return that final status without ticking
+    the child again (e.g. a calibration touch at the start of a mission that may be re-entered).
+
+    Parameters
+    ----------
+    child : py_trees.behaviour.Behaviour
+        The decorated node (YAML: under ``child``).
+    name : str
+        Name of the node.
+    policy : str
+        ``on_completion``: done after the first SUCCESS or FAILURE. ``on_successful_completion``:
+        done after the first SUCCESS; a failure may be tried again.
+    """
+
+    fixed_parameters = frozenset({"name", "policy"})
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "oneshot",
+                 policy: Literal["on_completion", "on_successful_completion"] = "on_successful_completion") -> None:
+        if policy not in ONESHOT_POLICIES:
+            raise ValueError(f"{name}: policy must be one of {', '.join(ONESHOT_POLICIES)}, got {policy!r}")
+        super().__init__(name=name, child=child, policy=ONESHOT_POLICIES[policy])
+        self.policy_name = policy

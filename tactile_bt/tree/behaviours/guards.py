@@ -1,0 +1,174 @@
+"""Guards: fail a branch on a condition, judged on the mission clock (never wall time).
+
+py_trees' own ``Timeout`` decorator reads wall time, which would make simulated missions depend
+on the speed of the machine; :class:`MissionTimeout` reads the ``/tactile/time`` key instead.
+"""
+
+from __future__ import annotations
+
+import py_trees
+from py_trees.common import Access, Status
+
+from tactile_bt.tree.behaviours.base import NAMESPACE, TactileBehaviour
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
+
+__all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
+
+_STORAGE = py_trees.blackboard.Blackboard.storage
+_TIME = f"{NAMESPACE}/time"
+
+
+class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
+    """Run ``child`` for at most ``duration_s`` seconds of mission time, then FAILURE
+    (or SUCCESS with ``succeed=True``, for phases that simply last a while). A child that
+    finishes in time passes its status through. The clock restarts whenever the decorator
+    starts again.
+
+    Parameters
+    ----------
+    child : py_trees.behaviour.Behaviour
+        The decorated node (YAML: under ``child``).
+    name : str
+        Name of the node.
+    duration_s : float
+        Mission time allowed to the child (s, > 0).
+    succeed : bool
+        SUCCESS instead of FAILURE when the time is up.
+    """
+
+    fixed_parameters = frozenset({"name"})
+    parameter_bounds = {"duration_s": POSITIVE}
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "mission_timeout", duration_s: float = 10.0,
+                 succeed: bool = False) -> None:
+        super().__init__(name=name, child=child)
+        self.set_parameter("duration_s", duration_s)
+        self.succeed = bool(succeed)
+        # The key is registered so that py_trees shows who reads it; the per-tick read goes
+        # straight to the storage (the client's bookkeeping costs several µs per read).
+        self.bb = self.attach_blackboard_client(name=name, namespace=NAMESPACE)
+        self.bb.register_key(key="time", access=Access.READ)
+        self._start = 0.0
+        self._elapsed = 0.0
+
+    def set_parameter(self, name: str, value) -> None:
+        """``duration_s`` (> 0) or ``succeed``."""
+        if name == "duration_s":
+            if not value > 0:
+                raise ValueError(f"{self.name}: duration_s must be positive, got {value}")
+            self.duration_s = float(value)
+        elif name == "succeed":
+            self.succeed = bool(value)
+        else:
+            raise ValueError(f"{self.name}: {name} is fixed at construction")
+
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"{self._elapsed:.2f} / {self.duration_s:g} s"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def initialise(self) -> None:
+        self._start = float(_STORAGE[_TIME])
+        self._elapsed = 0.0
+
+    def update(self) -> Status:
+        status = self.decorated.status
+        if status == Status.SUCCESS or status == Status.FAILURE:
+            return status
+        elapsed = self._elapsed = _STORAGE[_TIME] - self._start
+        if elapsed >= self.duration_s:
+            self.feedback_message = f"timed out after {self.duration_s:g} s of mission time"
+            if status == Status.RUNNING:
+                self.decorated.stop(Status.INVALID)
+            return Status.SUCCESS if self.succeed else Status.FAILURE
+        self._feedback = None
+        return status
+
+
+class ContactLost(TactileBehaviour):
+    """RUNNING while in contact; FAILURE once contact has been absent for ``grace_s`` seconds
+    of mission time. Put it in parallel with servo leaves to end a branch when the object is
+    lost.
+
+    Parameters
+    ----------
+    grace_s : float
+        Time without contact tolerated before failing (s).
+    """
+
+    uses = frozenset({"pressure"})
+    parameter_bounds = {"grace_s": NON_NEGATIVE}
+
+    def __init__(self, name: str = "contact_lost", grace_s: float = 0.2) -> None:
+        super().__init__(name)
+        self.set_parameter("grace_s", grace_s)
+        self._lost_since: float | None = None
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "grace_s" and not value >= 0:
+            raise ValueError(f"{self.name}: grace_s must not be negative, got {value}")
+        super().set_parameter(name, float(value) if name == "grace_s" else value)
+
+    def initialise(self) -> None:
+        self._lost_since = None
+
+    def update(self) -> Status:
+        if self.features.in_contact:
+            self._lost_since = None
+            self.feedback_message = "in contact"
+            return Status.RUNNING
+        if self._lost_since is None:
+            self._lost_since = self.now
+        lost_for = self.now - self._lost_since
+        if lost_for >= self.grace_s:
+            self.feedback_message = f"contact lost for {lost_for:.2f} s"
+            return Status.FAILURE
+        self.feedback_message = f"no contact for {lost_for:.2f} s"
+        return Status.RUNNING
+
+
+class ForceLimit(TactileBehaviour):
+    """RUNNING while the contact force stays at or below ``limit_n``; FAILURE above it. Judged
+    on the unsmoothed force, so a spike the moving average would hide still trips it.
+
+    Parameters
+    ----------
+    limit_n : float
+        Largest contact force (N, the sum over the contact region).
+    """
+
+    uses = frozenset({"pressure"})
+    parameter_bounds = {"limit_n": POSITIVE}
+
+    def __init__(self, name: str = "force_limit", limit_n: float = 10.0) -> None:
+        super().__init__(name)
+        self.set_parameter("limit_n", limit_n)
+        self._force = 0.0
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "limit_n" and not value > 0:
+            raise ValueError(f"{self.name}: limit_n must be positive, got {value}")
+        super().set_parameter(name, float(value) if name == "limit_n" else value)
+
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"force {self._force:.2f} N"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def update(self) -> Status:
+        force = self._force = self.features_raw.force
+        if force > self.limit_n:
+            self.feedback_message = f"force {force:.2f} N above the limit {self.limit_n:g} N"
+            return Status.FAILURE
+        self._feedback = None
+        return Status.RUNNING

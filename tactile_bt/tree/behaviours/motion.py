@@ -1,0 +1,209 @@
+"""Leaves that move the pad without closing a tactile loop: ``approach`` and ``guided_slide``."""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from tactile_bt import defaults
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BlackboardReferenceError, normalise_key
+
+_STORAGE = py_trees.blackboard.Blackboard.storage
+
+__all__ = ["Approach", "GuidedSlide"]
+
+
+class Approach(TactileBehaviour):
+    """Move along the pad normal (+z of the sensor frame) until the contact pressure passes
+    ``pressure_pa``; SUCCESS then. FAILURE after ``timeout_s`` of mission time or ``max_travel_m``
+    of travel without reaching it. This is the start of every experiment of the paper (Sec. V).
+
+    The feedback message tells the distance travelled, the pressure reached, or why it failed.
+
+    Parameters
+    ----------
+    speed_mps : float
+        Approach speed along +z_s, towards the object (m/s, > 0).
+    pressure_pa : float
+        Smoothed contact pressure that counts as contact established (Pa).
+    timeout_s : float
+        Mission-clock time allowed from the start of the leaf (s).
+    max_travel_m : float
+        Largest distance travelled along the normal (m).
+    """
+
+    uses = frozenset({"pressure"})
+    parameter_bounds = {"speed_mps": POSITIVE, "pressure_pa": POSITIVE, "timeout_s": POSITIVE,
+                        "max_travel_m": POSITIVE}
+
+    def __init__(
+        self,
+        name: str = "approach",
+        speed_mps: float = defaults.APPROACH_SPEED_MPS,
+        pressure_pa: float = defaults.APPROACH_PRESSURE_PA,
+        timeout_s: float = 10.0,
+        max_travel_m: float = 0.1,
+    ) -> None:
+        super().__init__(name)
+        self.set_parameter("speed_mps", speed_mps)
+        self.pressure_pa = float(pressure_pa)
+        self.set_parameter("timeout_s", timeout_s)
+        self.set_parameter("max_travel_m", max_travel_m)
+        self._start = 0.0
+        self.travelled = 0.0
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "speed_mps" and not value > 0:
+            raise ValueError(f"{self.name}: speed_mps must be positive, got {value}")
+        if name in ("timeout_s", "max_travel_m") and not value > 0:
+            raise ValueError(f"{self.name}: {name} must be positive, got {value}")
+        super().set_parameter(name, value if name == "name" else float(value))
+
+    def initialise(self) -> None:
+        self._start = self.now
+        self.travelled = 0.0
+
+    # The message of a running approach is formatted only when somebody reads it.
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"approaching, {self.travelled * 1e3:.1f} mm"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def update(self) -> Status:
+        f = self.features
+        if f.in_contact and f.pressure >= self.pressure_pa:
+            self.feedback_message = f"contact at {f.pressure:.0f} Pa after {self.travelled * 1e3:.1f} mm"
+            return Status.SUCCESS
+        elapsed = self.now - self._start
+        if elapsed > self.timeout_s:
+            self.feedback_message = f"no contact within {self.timeout_s:g} s"
+            return Status.FAILURE
+        if self.travelled >= self.max_travel_m:
+            self.feedback_message = f"no contact within {self.max_travel_m * 1e3:g} mm"
+            return Status.FAILURE
+        self.command.add(self.name, (0.0, 0.0, self.speed_mps, 0.0, 0.0, 0.0))
+        self.travelled += self.speed_mps * self.dt
+        self._feedback = None
+        return Status.RUNNING
+
+
+class GuidedSlide(TactileBehaviour):
+    """Add the external guidance twist ``V_ext`` (sensor frame) of the paper's Eq. 3.
+
+    The twist is constant (``twist``) or read each cycle from the blackboard key ``twist_key``
+    (e.g. ``/planner/twist``, written by a planner; a missing key is an error when the leaf
+    starts). A ``twist`` given as a blackboard reference (``"@/key"``) is instead read once,
+    when the leaf starts. With ``require_contact`` the pad only slides while in contact.
+    SUCCESS after ``distance_m`` of travel or ``duration_s`` of mission time when given
+    (0 = unlimited), otherwise RUNNING.
+
+    Parameters
+    ----------
+    twist : list of float
+        ``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame.
+    twist_key : str
+        Blackboard key to read the twist from on every tick instead ("" = use ``twist``).
+    require_contact : bool
+        Slide only while in contact (otherwise wait, RUNNING).
+    distance_m : float
+        Succeed after this linear travel (m; 0 = unlimited).
+    duration_s : float
+        Succeed after this mission time (s; 0 = unlimited).
+    """
+
+    fixed_parameters = frozenset({"name", "twist_key"})
+    #: ``twist`` is signed (its sign is the direction) and only has to be finite.
+    parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE}
+    #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
+    key_parameters = {"twist_key": "twist"}
+
+    def __init__(
+        self,
+        name: str = "guided_slide",
+        twist: Sequence[float] = (0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0),
+        twist_key: str = "",
+        require_contact: bool = True,
+        distance_m: float = 0.0,
+        duration_s: float = 0.0,
+    ) -> None:
+        super().__init__(name)
+        self.set_parameter("twist", twist)
+        self.twist_key = twist_key
+        if twist_key:
+            self._key = normalise_key(twist_key)
+            self._external = self.attach_blackboard_client(name=f"{name}/external")
+            self._external.register_key(key=self._key, access=Access.READ)
+        self.require_contact = bool(require_contact)
+        self.distance_m = float(distance_m)
+        self.duration_s = float(duration_s)
+        self.travelled = 0.0
+        self._start = 0.0
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "twist":
+            twist = np.asarray(value, dtype=float)
+            if twist.shape != (6,) or not np.all(np.isfinite(twist)):
+                raise ValueError(f"{self.name}: twist must be 6 finite numbers, got {list(np.ravel(twist))!r}")
+            self.twist = twist
+            self._twist = tuple(float(v) for v in twist)
+            self._speed = float(np.linalg.norm(twist[:3]))
+        else:
+            super().set_parameter(name, value)
+
+    def initialise(self) -> None:
+        self.travelled = 0.0
+        self._start = self.now
+        if self.twist_key and not self._external.exists(self._key):
+            raise BlackboardReferenceError(f"{self.name}: blackboard key {self._key!r} (twist_key) is not set; "
+                           "write the twist there before the leaf starts")
+
+    def current_twist(self) -> np.ndarray:
+        """The twist the leaf adds this cycle (m/s, rad/s, sensor frame)."""
+        if self.twist_key:
+            return np.asarray(_STORAGE[self._key], dtype=float)
+        return self.twist
+
+    # The message of a sliding leaf is formatted only when somebody reads it.
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"sliding, {self.travelled * 1e3:.1f} mm"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def update(self) -> Status:
+        if self.distance_m > 0 and self.travelled >= self.distance_m:
+            self.feedback_message = f"slid {self.travelled * 1e3:.0f} mm"
+            return Status.SUCCESS
+        if self.duration_s > 0 and self.now - self._start >= self.duration_s:
+            self.feedback_message = f"slid for {self.duration_s:g} s"
+            return Status.SUCCESS
+        if self.require_contact and not self.features.in_contact:
+            self.feedback_message = "waiting for contact"
+            return Status.RUNNING
+        if self.twist_key:
+            # Straight from the storage (the key is registered above): no per-tick bookkeeping.
+            value = _STORAGE[self._key]
+            twist = value.tolist() if isinstance(value, np.ndarray) else list(value)
+            if len(twist) != 6:
+                raise ValueError(f"{self.name}: blackboard key {self._key!r} must hold 6 numbers, got {value!r}")
+            speed = math.sqrt(twist[0] * twist[0] + twist[1] * twist[1] + twist[2] * twist[2])
+        else:
+            twist, speed = self._twist, self._speed
+        self.command.add(self.name, twist)
+        self.travelled += speed * self.dt
+        self._feedback = None
+        return Status.RUNNING

@@ -1,0 +1,294 @@
+"""Contact recording: the robot as a ruler (paper Sec. IV). Each cycle in contact, the centre of
+pressure (or the whole contact imprint) is carried to the base frame through the forward
+kinematics ``T_gs``."""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Literal
+
+import numpy as np
+from py_trees.common import Status
+from scipy import ndimage
+
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
+from tactile_bt.perception.features import local_contact_point
+
+__all__ = ["ContactCloud", "RecordContacts", "imprint_points"]
+
+#: Half the pad's width (m): a turn of the pad by θ rad moves its border by about this times θ.
+_PAD_HALF_M = 0.04
+
+
+class ContactCloud:
+    """Growable store of contact samples in the base (world) frame.
+
+    Columns: point ``x, y, z`` (m), outward surface normal ``nx, ny, nz`` (the object's, i.e.
+    −z of the sensor frame), pressure (Pa) and mission time (s).
+
+    The cloud also remembers which voxels hold a sample (:meth:`fresh`), so every recorder of a
+    mission thins against the same set: a stripe scan that passes a spot twice stores it once.
+    """
+
+    COLUMNS = ("x", "y", "z", "nx", "ny", "nz", "pressure", "t")
+
+    def __init__(self, capacity: int = 1024) -> None:
+        self._data = np.empty((capacity, len(self.COLUMNS)))
+        self._n = 0
+        self._voxels: dict[float, set] = {}
+
+    def __len__(self) -> int:
+        return self._n
+
+    def _reserve(self, extra: int) -> None:
+        need = self._n + extra
+        if need > self._data.shape[0]:
+            grown = np.empty((max(need, 2 * self._data.shape[0]), len(self.COLUMNS)))
+            grown[: self._n] = self._data[: self._n]
+            self._data = grown
+
+    def append(self, point, normal, pressure: float, t: float) -> None:
+        """Add one sample: point and normal (3 each, world frame), pressure (Pa), time (s)."""
+        if self._n == self._data.shape[0]:
+            self._reserve(1)
+        self._data[self._n] = (*point, *normal, pressure, t)
+        self._n += 1
+
+    def extend(self, points: np.ndarray, normal, pressure, t: float) -> None:
+        """Add ``k`` samples: ``(k, 3)`` points (m, world), one normal or ``(k, 3)`` normals,
+        one pressure or ``(k,)`` pressures (Pa), all at mission time ``t`` (s)."""
+        k = len(points)
+        if k == 0:
+            return
+        self._reserve(k)
+        block = self._data[self._n: self._n + k]
+        block[:, 0:3] = points
+        block[:, 3:6] = normal
+        block[:, 6] = pressure
+        block[:, 7] = t
+        self._n += k
+
+    def fresh(self, points: np.ndarray, voxel_m: float) -> np.ndarray:
+        """Mask of the ``(k, 3)`` points (m) whose voxel of edge ``voxel_m`` holds no sample yet
+        (one per voxel within the batch too); marks those voxels as taken."""
+        keys = np.floor(np.asarray(points) / voxel_m).astype(np.int64)
+        # one int per voxel: 21 bits per axis covers ±1 km at 1 mm
+        packed = ((keys[:, 0] & 0x1FFFFF) << 42) | ((keys[:, 1] & 0x1FFFFF) << 21) | (keys[:, 2] & 0x1FFFFF)
+        seen = self._voxels.setdefault(voxel_m, set())
+        mask = np.zeros(len(packed), dtype=bool)
+        for i, key in enumerate(packed.tolist()):
+            if key not in seen:
+                seen.add(key)
+                mask[i] = True
+        return mask
+
+    @property
+    def data(self) -> np.ndarray:
+        """``(N, 8)`` array of the samples (a view)."""
+        return self._data[: self._n]
+
+    @property
+    def points(self) -> np.ndarray:
+        return self._data[: self._n, 0:3]
+
+    @property
+    def normals(self) -> np.ndarray:
+        return self._data[: self._n, 3:6]
+
+
+@functools.lru_cache(maxsize=8)
+def _imprint_grid(rows: int, cols: int, pitch: float, step: float):
+    """Bilinear interpolation matrices from tactel centres to a grid of sample points covering
+    the pad at spacing ``step`` (m), and the samples' sensor-frame x, y (m), row-major."""
+
+    def axis(n: int) -> tuple[np.ndarray, np.ndarray]:
+        count = max(1, int(round(n * pitch / step)))
+        # sample centres across the pad's full width, in tactel units (tactel centres at 0..n-1)
+        u = (np.arange(count) + 0.5) * (n / count) - 0.5
+        uc = np.clip(u, 0.0, n - 1.0)
+        lo = np.minimum(np.floor(uc).astype(int), n - 2) if n > 1 else np.zeros(count, int)
+        frac = uc - lo
+        A = np.zeros((count, n))
+        A[np.arange(count), lo] += 1.0 - frac
+        if n > 1:
+            A[np.arange(count), lo + 1] += frac
+        return A, (u - (n - 1) * 0.5) * pitch
+
+    A_r, y = axis(rows)
+    A_c, x = axis(cols)
+    X, Y = np.meshgrid(x, y)  # (len(y), len(x)): rows of samples along y
+    xy = np.column_stack((X.ravel(), Y.ravel(), np.zeros(X.size)))
+    return A_r, A_c, xy
+
+
+def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tuple[np.ndarray, np.ndarray]:
+    """The whole contact imprint as points in the sensor frame: "the robot as a ruler" (paper
+    Sec. IV) applied to every part of the contact region, not only its centre of pressure.
+
+    The force image of the contact region R is interpolated bilinearly onto a grid of spacing
+    ``step_m`` over the pad; a sample belongs to the imprint where the interpolated force
+    reaches ``level`` times the region's peak (the 90th percentile of its tactel forces). With
+    the foam's symmetric spread, the half-peak contour of a flat contact lies on its true border
+    to within a fraction of a tactel, and the samples stay off the blurred fringe beyond it.
+
+    Parameters
+    ----------
+    features : ContactFeatures
+        Features with ``image`` and ``mask`` (raw features of the cycle).
+    level : float
+        Fraction of the peak force (0–1).
+    step_m : float
+        Sample spacing on the pad (m).
+
+    Returns
+    -------
+    points : (k, 3) array
+        Sensor-frame points (m), z = 0 (the pad surface).
+    pressure : (k,) array
+        Interpolated local pressure at the points (Pa).
+    """
+    image = features.image
+    if not features.in_contact or image is None:
+        return np.zeros((0, 3)), np.zeros(0)
+    mask = features.mask
+    rows, cols = mask.shape
+    # only the largest region (and its immediate fringe): other blobs are not this contact
+    region = ndimage.binary_dilation(mask)
+    img = np.where(region, image, 0.0)
+    peak = float(np.percentile(image[mask], 90))
+    if not peak > 0.0:
+        return np.zeros((0, 3)), np.zeros(0)
+    A_r, A_c, xy = _imprint_grid(rows, cols, float(features.pitch), float(step_m))
+    values = (A_r @ img @ A_c.T).ravel()
+    keep = values >= level * peak
+    return xy[keep], values[keep] / features.pitch**2
+
+
+class RecordContacts(TactileBehaviour):
+    """While RUNNING, append the contact point ``T_gs · cop`` of every cycle in contact to the
+    mission's contact cloud (``/tactile/contacts``); with ``point: region`` the whole imprint.
+    Never finishes by itself; the feedback message counts the samples.
+
+    Parameters
+    ----------
+    min_spacing_m : float
+        Skip a cycle whose contact point lies closer than this (m) to the previous recorded one
+        (0 keeps all). With ``point: region``: skip the cycle until the pad has moved this far
+        (its centre of pressure, plus 40 mm times the turn of the pad in rad).
+    point : str
+        ``"cop"``: the centre of pressure (Eq. 1). ``"local"``: where an elongated contact
+        crosses the pad centre (:func:`~tactile_bt.perception.features.local_contact_point`), which removes
+        the chord bias of the COP on curved lines such as a bent cable; needs the orientation.
+        ``"region"``: every point of the contact imprint (:func:`imprint_points`), each with
+        its local pressure; covers a surface as fast as the pad is wide.
+    voxel_m : float
+        Keep at most one sample per voxel of this edge (m), shared by every recorder of the
+        mission (0 = off).
+    region_level : float
+        ``point: region``: fraction of the contact's peak force where the imprint ends (0–1).
+    region_step_m : float
+        ``point: region``: spacing of the imprint samples on the pad (m).
+    reconstruct : str
+        Surface reconstruction of the cloud at the end of the mission, written to
+        ``surface.ply`` (:mod:`tactile_bt.contacts.reconstruct`): ``none``, ``auto``, ``delaunay``,
+        ``surface`` or ``hull``.
+    """
+
+    uses = frozenset({"cop", "pressure"})
+    fixed_parameters = frozenset({"name", "point", "reconstruct"})
+    parameter_bounds = {"min_spacing_m": NON_NEGATIVE, "voxel_m": NON_NEGATIVE,
+                        "region_level": between(0, 1, low_open=True), "region_step_m": POSITIVE}
+
+    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
+                 point: Literal["cop", "local", "region"] = "cop", voxel_m: float = 0.0,
+                 region_level: float = 0.5, region_step_m: float = 0.0025,
+                 reconstruct: Literal["none", "auto", "delaunay", "surface", "hull"] = "none") -> None:
+        super().__init__(name)
+        if point not in ("cop", "local", "region"):
+            raise ValueError(f"{name}: point must be 'cop', 'local' or 'region', got {point!r}")
+        if reconstruct not in ("none", "auto", "delaunay", "surface", "hull"):
+            raise ValueError(f"{name}: reconstruct must be none, auto, delaunay, surface or hull, got {reconstruct!r}")
+        self.point = point
+        self.reconstruct = reconstruct
+        if point == "local":
+            self.uses = frozenset({"cop", "pressure", "orientation"})
+        self.set_parameter("min_spacing_m", min_spacing_m)
+        self.set_parameter("voxel_m", voxel_m)
+        self.set_parameter("region_level", region_level)
+        self.set_parameter("region_step_m", region_step_m)
+        self._last: np.ndarray | None = None
+        self._last_rotation: np.ndarray | None = None
+        self._in_contact = False
+
+    def set_parameter(self, name: str, value) -> None:
+        if name in ("min_spacing_m", "voxel_m") and not value >= 0:
+            raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
+        if name == "region_level" and not 0.0 < value <= 1.0:
+            raise ValueError(f"{self.name}: region_level must be in (0, 1], got {value}")
+        if name == "region_step_m" and not value > 0:
+            raise ValueError(f"{self.name}: region_step_m must be positive, got {value}")
+        numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m")
+        super().set_parameter(name, float(value) if name in numeric else value)
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            contacts = getattr(self, "contacts", None)
+            n = len(contacts) if contacts is not None else 0
+            return f"{n} contacts" + ("" if self._in_contact else ", not in contact")
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        self.contacts = self.bb.contacts
+
+    def initialise(self) -> None:
+        self._last = None
+        self._last_rotation = None
+
+    def update(self) -> Status:
+        f = self.features_raw
+        cloud = self.contacts
+        self._feedback = None
+        if not f.in_contact:
+            self._in_contact = False
+            return Status.RUNNING
+        self._in_contact = True
+        T = self.pose
+        R = T[:3, :3]
+        if self.point == "local":
+            px = local_contact_point(f)
+            cop = (px - ((f.mask.shape[1] - 1) * 0.5, (f.mask.shape[0] - 1) * 0.5)) * f.pitch
+        else:
+            cop = f.cop
+        point = R @ (cop[0], cop[1], 0.0) + T[:3, 3]
+        normal = -T[:3, 2]
+        if self.point == "region":
+            if self._last is not None and self.min_spacing_m > 0:
+                moved = math.sqrt(float(np.sum((point - self._last) ** 2)))
+                moved += _PAD_HALF_M * float(np.linalg.norm(R - self._last_rotation)) / math.sqrt(2.0)
+                if moved < self.min_spacing_m:
+                    return Status.RUNNING
+            local, pressure = imprint_points(f, self.region_level, self.region_step_m)
+            world = local @ R.T + T[:3, 3]
+            if self.voxel_m > 0 and len(world):
+                keep = cloud.fresh(world, self.voxel_m)
+                world, pressure = world[keep], pressure[keep]
+            cloud.extend(world, normal, pressure, self.now)
+            self._last, self._last_rotation = point, R.copy()
+            return Status.RUNNING
+        if self._last is not None and self.min_spacing_m > 0:
+            if np.sum((point - self._last) ** 2) < self.min_spacing_m**2:
+                return Status.RUNNING
+        if self.voxel_m > 0 and not cloud.fresh(point[None, :], self.voxel_m)[0]:
+            return Status.RUNNING
+        cloud.append(point.tolist(), normal.tolist(), f.pressure, self.now)
+        self._last = point
+        return Status.RUNNING

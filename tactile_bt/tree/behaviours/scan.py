@@ -1,0 +1,323 @@
+"""Leaves for surface scans (paper Sec. V-E): a world-frame guidance direction for stripes, and
+the conditions that end a stripe or a whole scan.
+
+``scan_direction`` writes the guidance twist to a blackboard key for ``guided_slide`` (with
+``twist_key``) to add: the world direction of the stripe, projected onto the pad's tangent plane
+and expressed in the sensor frame, so stripes stay straight in the world however the pad rolls
+or turns. ``stripe_end`` succeeds (or fails, for the steps between stripes) when a stripe has
+reached the end of the surface: the contact point stalls or jumps, the contact shrinks at an
+edge, the pad tilts past a limit or turns over an edge. ``coverage_stalled`` succeeds when the
+contact cloud has stopped growing. All of them read the mission clock, never wall time.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from typing import Literal, Sequence
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+
+__all__ = ["ScanDirection", "StripeEnd", "CoverageStalled"]
+
+_STORAGE = py_trees.blackboard.Blackboard.storage
+#: A stripe that starts beyond the tilt limit ends once it has tilted this much (rad) beyond the
+#: least tilt it had.
+_TILT_MARGIN_RAD = math.radians(5.0)
+
+
+def _unit(name: str, value, what: str) -> np.ndarray:
+    v = np.asarray(value, dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
+        raise ValueError(f"{name}: {what} must be a non-zero [x, y, z], got {value!r}")
+    return v / np.linalg.norm(v)
+
+
+class ScanDirection(TactileBehaviour):
+    """Write the guidance twist that slides the pad along a world direction to ``key``, every
+    tick, for ``guided_slide: {twist_key: ...}``. The direction is projected onto the pad's
+    tangent plane (the plane of the sensor's x and y axes) and expressed in the sensor frame:
+    ``V_ext = [vx, vy, 0, 0, 0, 0]`` with speed ``speed_mps``. RUNNING; it never finishes.
+
+    Parameters
+    ----------
+    direction : list of float
+        World direction ``[x, y, z]`` of the stripe (any length; normalised).
+    speed_mps : float
+        Sliding speed (m/s, > 0).
+    key : str
+        Blackboard key the twist is written to (m/s and rad/s, sensor frame).
+    """
+
+    fixed_parameters = frozenset({"name", "key"})
+    parameter_bounds = {"speed_mps": POSITIVE}
+
+    def __init__(self, name: str = "scan_direction", direction: Sequence[float] = (1.0, 0.0, 0.0),
+                 speed_mps: float = 0.02, key: str = "/scan/guidance") -> None:
+        super().__init__(name)
+        self.set_parameter("direction", direction)
+        self.set_parameter("speed_mps", speed_mps)
+        self.key = normalise_key(key)
+        self._writer = self.attach_blackboard_client(name=f"{name}/guidance")
+        self._writer.register_key(key=self.key, access=Access.WRITE)
+        self.twist = np.zeros(6)
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "direction":
+            self.direction = _unit(self.name, value, "direction")
+        elif name == "speed_mps":
+            if not value > 0:
+                raise ValueError(f"{self.name}: speed_mps must be positive, got {value}")
+            self.speed_mps = float(value)
+        else:
+            super().set_parameter(name, value)
+
+    def guidance(self, pose: np.ndarray) -> np.ndarray:
+        """The sensor-frame twist (m/s) for the pad at ``pose`` (``T_gs``)."""
+        R = pose[:3, :3]
+        along = R.T @ self.direction  # the direction in the sensor frame
+        tangential = math.hypot(along[0], along[1])
+        twist = np.zeros(6)
+        if tangential > 1e-3:  # not along the pad normal
+            twist[0] = self.speed_mps * along[0] / tangential
+            twist[1] = self.speed_mps * along[1] / tangential
+        return twist
+
+    def initialise(self) -> None:
+        _STORAGE[self.key] = self.guidance(self.pose)
+
+    def update(self) -> Status:
+        self.twist = self.guidance(self.pose)
+        _STORAGE[self.key] = self.twist
+        return Status.RUNNING
+
+
+class StripeEnd(TactileBehaviour):
+    """SUCCESS (or FAILURE, with ``result: failure``) when a stripe has come to the end of the
+    surface: the contact point stalls or jumps, the contact shrinks at an edge, the pad tilts
+    past a limit or turns over an edge; RUNNING before.
+
+    The end is one of: the contact point (``T_gs · cop``) has moved less than ``min_travel_m``
+    in the last ``window_s`` of mission time (the pad is stuck at an edge or against a wall);
+    the contact area has stayed below ``min_area_ratio`` times the largest area of this stripe
+    for ``window_s / 5`` (the pad has run half over an edge, so its imprint reaches the edge
+    while it still lies flat); the pad's outward normal (−z of the sensor frame) is more than
+    ``max_tilt_rad`` away from ``up`` (it has rolled over the part of the object the scan is
+    for, and it tilts further: a stripe that starts beyond the limit, on the object's side after
+    the previous stripe, ends once it has tilted 5° more than the least tilt it has had, or if it
+    has not come back within the limit after ``window_s``); the pad normal has turned more than
+    ``max_turn_rad`` since the stripe started (it has rolled over an edge);
+    the contact point has travelled ``max_travel_m``; the contact point has jumped more than
+    ``max_jump_m`` from one cycle to the next (the largest contact region is now another object,
+    such as the table under a tilted pad). The feedback message says which.
+
+    Parameters
+    ----------
+    window_s : float
+        Time window of the stall test (s; 0 = no stall test).
+    min_travel_m : float
+        Least travel of the contact point within ``window_s`` (m).
+    max_tilt_rad : float
+        Largest angle between the outward normal and ``up`` (rad; 0 = no tilt test).
+    up : list of float
+        World direction the tilt is measured from (default: up, +z).
+    max_travel_m : float
+        Travel of the contact point after which the stripe ends (m; 0 = unlimited).
+    min_area_ratio : float
+        Contact area, as a fraction of the stripe's largest, below which the stripe ends
+        (0 = no area test).
+    max_jump_m : float
+        Largest move of the contact point from one cycle to the next (m; 0 = no jump test).
+    max_turn_rad : float
+        Largest turn of the pad normal from its direction at the start of the stripe (rad;
+        0 = no turn test): a short step that rolls the pad over an edge ends here.
+    result : str
+        Status at the end of the surface: ``success`` ends the stripe; ``failure`` fails it, so
+        that a step between stripes which finds no more surface stops a ``repeat`` of stripes
+        (catch it with a ``selector``).
+    """
+
+    uses = frozenset({"cop"})
+    fixed_parameters = frozenset({"name", "result"})
+    parameter_bounds = {"window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE, "max_tilt_rad": between(0, math.pi),
+                        "max_travel_m": NON_NEGATIVE, "min_area_ratio": between(0, 1, high_open=True),
+                        "max_jump_m": NON_NEGATIVE, "max_turn_rad": between(0, math.pi)}
+
+    def __init__(self, name: str = "stripe_end", window_s: float = 1.0, min_travel_m: float = 0.004,
+                 max_tilt_rad: float = 0.0, up: Sequence[float] = (0.0, 0.0, 1.0),
+                 max_travel_m: float = 0.0, min_area_ratio: float = 0.0, max_jump_m: float = 0.0,
+                 max_turn_rad: float = 0.0, result: Literal["success", "failure"] = "success") -> None:
+        super().__init__(name)
+        if result not in ("success", "failure"):
+            raise ValueError(f"{name}: result must be 'success' or 'failure', got {result!r}")
+        self.result = result
+        self._end = Status.SUCCESS if result == "success" else Status.FAILURE
+        for key, value in (("window_s", window_s), ("min_travel_m", min_travel_m),
+                           ("max_tilt_rad", max_tilt_rad), ("up", up), ("max_travel_m", max_travel_m),
+                           ("min_area_ratio", min_area_ratio), ("max_jump_m", max_jump_m),
+                           ("max_turn_rad", max_turn_rad)):
+            self.set_parameter(key, value)
+        self._max_area = 0
+        self._small_since: float | None = None
+        self._min_cos = -2.0
+        self._normal0: np.ndarray | None = None
+        self._history: collections.deque = collections.deque()
+        self._start = 0.0
+        self.travelled = 0.0
+        self._last: np.ndarray | None = None
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "up":
+            self.up = _unit(self.name, value, "up")
+            return
+        if name == "min_area_ratio" and not 0.0 <= value < 1.0:
+            raise ValueError(f"{self.name}: min_area_ratio must be in [0, 1), got {value}")
+        if name in ("window_s", "min_travel_m", "max_tilt_rad", "max_travel_m", "min_area_ratio", "max_jump_m",
+                    "max_turn_rad"):
+            if not value >= 0:
+                raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
+            if name in ("max_tilt_rad", "max_turn_rad") and value > math.pi:
+                raise ValueError(f"{self.name}: {name} must be at most π, got {value}")
+            value = float(value)
+            if name == "max_tilt_rad":
+                self._cos_tilt = math.cos(value) if value > 0 else -2.0
+            if name == "max_turn_rad":
+                self._cos_turn = math.cos(value)
+        super().set_parameter(name, value)
+
+    def initialise(self) -> None:
+        self._history.clear()
+        self._start = self.now
+        self.travelled = 0.0
+        self._last = None
+        self._max_area = 0
+        self._small_since = None
+        self._min_cos = -2.0  # cosine of the least tilt of this stripe
+        self._normal0 = None  # pad normal at the start
+
+    def update(self) -> Status:
+        T = self.pose
+        now = self.now
+        if self.max_tilt_rad > 0:
+            cos_tilt = -float(T[:3, 2] @ self.up)
+            if cos_tilt > self._min_cos:
+                self._min_cos = cos_tilt
+            if cos_tilt < self._cos_tilt:
+                tilt = math.acos(max(-1.0, min(1.0, cos_tilt)))
+                limit = f"(limit {math.degrees(self.max_tilt_rad):.0f}°)"
+                if tilt > math.acos(min(1.0, self._min_cos)) + _TILT_MARGIN_RAD:
+                    self.feedback_message = f"tilted {math.degrees(tilt):.0f}° {limit}"
+                    return self._end
+                if self._min_cos < self._cos_tilt and 0 < self.window_s <= now - self._start:
+                    self.feedback_message = f"stayed beyond the tilt limit for {self.window_s:g} s {limit}"
+                    return self._end
+        if self.max_turn_rad > 0:
+            if self._normal0 is None:
+                self._normal0 = T[:3, 2].copy()
+            elif float(T[:3, 2] @ self._normal0) < self._cos_turn:
+                turn = math.degrees(math.acos(max(-1.0, min(1.0, float(T[:3, 2] @ self._normal0)))))
+                self.feedback_message = f"turned {turn:.0f}° over an edge (limit {math.degrees(self.max_turn_rad):.0f}°)"
+                return self._end
+        f = self.features_raw
+        if f.in_contact:
+            x, y = f.cop_xy
+            point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+            if self._last is not None:
+                step = float(np.linalg.norm(point - self._last))
+                if 0 < self.max_jump_m < step:
+                    self.feedback_message = (f"contact jumped {step * 1e3:.0f} mm after "
+                                             f"{self.travelled * 1e3:.0f} mm")
+                    return self._end
+                self.travelled += step
+            self._last = point
+            self._history.append((now, point))
+            if self.min_area_ratio > 0:
+                area = f.area
+                if area > self._max_area:
+                    self._max_area = area
+                if area < self.min_area_ratio * self._max_area:
+                    if self._small_since is None:
+                        self._small_since = now
+                    elif now - self._small_since >= 0.2 * self.window_s:
+                        self.feedback_message = (f"contact shrank to {area} of {self._max_area} tactels "
+                                                 f"after {self.travelled * 1e3:.0f} mm")
+                        return self._end
+                else:
+                    self._small_since = None
+        if self.max_travel_m > 0 and self.travelled >= self.max_travel_m:
+            self.feedback_message = f"travelled {self.travelled * 1e3:.0f} mm"
+            return self._end
+        if self.window_s > 0:
+            history = self._history
+            while len(history) > 1 and history[1][0] <= now - self.window_s:
+                history.popleft()
+            if history and now - self._start >= self.window_s and history[0][0] <= now - self.window_s + 1e-9:
+                moved = float(np.linalg.norm(history[-1][1] - history[0][1]))
+                if moved < self.min_travel_m:
+                    self.feedback_message = (f"stalled: {moved * 1e3:.1f} mm in {self.window_s:g} s "
+                                             f"after {self.travelled * 1e3:.0f} mm")
+                    return self._end
+        self.feedback_message = f"{self.travelled * 1e3:.0f} mm"
+        return Status.RUNNING
+
+
+class CoverageStalled(TactileBehaviour):
+    """SUCCESS once the mission's contact cloud has stopped growing: fewer than ``min_growth``
+    times its size in new samples within the last ``window_s`` of mission time; RUNNING before.
+    With voxel thinning (``record_contacts: {voxel_m: ...}``) the cloud's size is a measure of
+    the area covered, so this ends a scan that only passes over places it has already touched.
+
+    Parameters
+    ----------
+    window_s : float
+        Time window (s, > 0); the leaf cannot succeed before it has run this long.
+    min_growth : float
+        Least relative growth of the cloud within the window (0.02 = 2 %).
+    min_samples : int
+        The cloud must hold at least this many samples before the test applies.
+    """
+
+    parameter_bounds = {"window_s": POSITIVE, "min_growth": NON_NEGATIVE, "min_samples": NON_NEGATIVE}
+
+    def __init__(self, name: str = "coverage_stalled", window_s: float = 10.0, min_growth: float = 0.02,
+                 min_samples: int = 100) -> None:
+        super().__init__(name)
+        self.set_parameter("window_s", window_s)
+        self.set_parameter("min_growth", min_growth)
+        self.set_parameter("min_samples", min_samples)
+        self._history: collections.deque = collections.deque()
+        self._start = 0.0
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "window_s" and not value > 0:
+            raise ValueError(f"{self.name}: window_s must be positive, got {value}")
+        if name in ("min_growth", "min_samples") and not value >= 0:
+            raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
+        super().set_parameter(name, int(value) if name == "min_samples" else float(value) if name != "name" else value)
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        self.contacts = self.bb.contacts
+
+    def initialise(self) -> None:
+        self._history.clear()
+        self._start = self.now
+
+    def update(self) -> Status:
+        now, size = self.now, len(self.contacts)
+        history = self._history
+        history.append((now, size))
+        while len(history) > 1 and history[1][0] <= now - self.window_s:
+            history.popleft()
+        if now - self._start >= self.window_s and size >= self.min_samples:
+            grown = size - history[0][1]
+            if grown < self.min_growth * size:
+                self.feedback_message = f"coverage stalled: {grown} new samples in {self.window_s:g} s ({size} in all)"
+                return Status.SUCCESS
+        self.feedback_message = f"{size} samples"
+        return Status.RUNNING

@@ -1,0 +1,594 @@
+"""Typed leaf parameters: units from their names, value checks, documentation and blackboard
+references.
+
+The parameters of a node are the keyword arguments of its class's ``__init__``; their types
+come from the type hints and their units from the name's suffix (``target_pa``, ``speed_mps``,
+``grace_s``). Their admissible ranges come from the class's ``parameter_bounds`` (a
+:class:`Bound` per parameter: ``POSITIVE``, ``NON_NEGATIVE``, ``between(0, 1)``, ...), merged
+over the class's bases; a number without a declared bound must still be finite. The YAML
+loader, blackboard references and the construction of a node in Python
+(:class:`BoundedParameters`) use the same checks, so a value is judged the same way wherever it
+comes from.
+
+A blackboard reference makes a parameter follow a blackboard key: the key is read when the node
+is *initialised* (each time it starts), never on every tick, so references cost nothing on the
+control cycle's hot path. See :func:`bind_blackboard`.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import numbers
+import re
+import typing
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import py_trees
+from py_trees.common import Access
+
+from tactile_bt import defaults
+
+__all__ = [
+    "UNITS",
+    "ACCEPTED_UNITS",
+    "ParameterTypeError",
+    "ParameterValueError",
+    "BlackboardReferenceError",
+    "Bound",
+    "FINITE",
+    "POSITIVE",
+    "NON_NEGATIVE",
+    "POSITIVE_OR_INF",
+    "between",
+    "bounds_of",
+    "check_bound",
+    "BoundedParameters",
+    "ParameterInfo",
+    "unit_of",
+    "parse_quantity",
+    "convert_parameter",
+    "describe_type",
+    "parameters_of",
+    "normalise_key",
+    "bind_blackboard",
+    "blackboard_references",
+]
+
+#: SI unit → the units a YAML value may carry instead, with their factor to the SI unit.
+ACCEPTED_UNITS: dict[str, dict[str, float]] = {
+    "Pa": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6},
+    "m/s": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
+    "rad/s": {"rad/s": 1.0, "deg/s": math.pi / 180.0},
+    "rad": {"rad": 1.0, "deg": math.pi / 180.0, "°": math.pi / 180.0},
+    "m": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "px": defaults.PITCH_M,
+          "tactel": defaults.PITCH_M, "tactels": defaults.PITCH_M},
+    "s": {"s": 1.0, "ms": 1e-3, "min": 60.0},
+    "N": {"N": 1.0, "mN": 1e-3},
+}
+#: Name suffix → SI unit: a parameter named ``*_pa`` is in Pa, ``*_mps`` in m/s, and so on.
+#: Classes name the units of other parameters in ``parameter_units`` (e.g. ``band``).
+UNITS: dict[str, str] = {"_pa": "Pa", "_mps": "m/s", "_rps": "rad/s", "_rad": "rad", "_m": "m", "_s": "s", "_n": "N"}
+#: A number with an optional unit: ``"1500"``, ``"1500Pa"``, ``"1.5 kPa"``, ``"2e3 Pa"``. The unit may not
+#: start with a digit, so the digits of a plain number are never split into number and "unit".
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)(?:\s*([^\s\d.+\-].*?))?\s*$")
+_LEADING_NUMBER = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)")
+
+
+class ParameterTypeError(TypeError):
+    """A value does not fit a parameter's type; ``expected`` says what would."""
+
+    def __init__(self, expected: str, value: Any, detail: str = "") -> None:
+        self.expected, self.value, self.detail = expected, value, detail
+        super().__init__(detail or f"expected {expected}, got {value!r}")
+
+
+class ParameterValueError(ValueError):
+    """A number outside its parameter's :class:`Bound` (or not finite). ``detail`` says what is
+    wrong without the parameter's name (``"must be > 0 (got -2000.0 Pa)"``); ``parameter``
+    names it, ``index`` is the element of a list (None for a single number)."""
+
+    def __init__(self, parameter: str | None, detail: str, index: int | None = None, node: str | None = None) -> None:
+        self.parameter, self.detail, self.index, self.node = parameter, detail, index, node
+        label = parameter or "value"
+        if index is not None:
+            label += f"[{index}]"
+        super().__init__(f"{node + ': ' if node else ''}{label} {detail}")
+
+    @property
+    def message(self) -> str:
+        """The message without the node (``target_pa must be > 0 (got -2000.0 Pa)``)."""
+        return str(ParameterValueError(self.parameter, self.detail, self.index))
+
+
+class BlackboardReferenceError(RuntimeError):
+    """A blackboard reference could not be resolved when its node started (missing key or a
+    value of the wrong type). The message names the tree file, line and column of the
+    reference, the node and parameter, and the key."""
+
+
+# ------------------------------------------------------------------------------ bounds
+
+
+def _number_text(x: float) -> str:
+    if x == math.pi:
+        return "π"
+    if x == math.pi / 2:
+        return "π/2"
+    return f"{x:g}"
+
+
+@dataclass(frozen=True)
+class Bound:
+    """The admissible values of a numeric parameter: finite numbers in ``[low, high]`` (each end
+    open or closed), plus ``+inf`` when ``allow_inf`` (e.g. an output limit where inf means "no
+    limit") and the values in ``also`` (e.g. ``-1`` = "forever" for a repeat count). NaN is never
+    admissible. Lists of numbers are checked element by element."""
+
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+    allow_inf: bool = False
+    also: tuple = ()
+
+    def __str__(self) -> str:
+        """The range as the reference tables show it: ``> 0``, ``>= 0``, ``[0, 1)``, ``finite``."""
+        lo, hi = math.isfinite(self.low), math.isfinite(self.high)
+        if lo and hi:
+            text = (f"{'(' if self.low_open else '['}{_number_text(self.low)}, "
+                    f"{_number_text(self.high)}{')' if self.high_open else ']'}")
+        elif lo:
+            text = f"{'>' if self.low_open else '>='} {_number_text(self.low)}"
+        elif hi:
+            text = f"{'<' if self.high_open else '<='} {_number_text(self.high)}"
+        else:
+            text = "finite" if not self.allow_inf else ""
+        extras = [_number_text(a) for a in self.also] + (["inf"] if self.allow_inf else [])
+        return " or ".join(t for t in (text, *extras) if t)
+
+    def _inside(self, x: float) -> bool:
+        if self.low_open and not x > self.low or not x >= self.low:
+            return False
+        if self.high_open and not x < self.high or not x <= self.high:
+            return False
+        return True
+
+    def problem(self, x: float) -> str | None:
+        """Why ``x`` is not admissible (``"must be > 0"``), or None when it is."""
+        if x in self.also:
+            return None
+        if math.isinf(x) and x > 0 and self.allow_inf:
+            return None
+        text = str(self)
+        if not math.isfinite(x):
+            if self.allow_inf or text == "finite":
+                return f"must be {text}"
+            return f"must be finite and {text}"
+        if self._inside(x):
+            return None
+        if (self.low, self.low_open, self.high, self.also) == (0.0, False, math.inf, ()):
+            return "must not be negative"
+        return f"must be {text}"
+
+
+#: Any finite number (the bound of every float parameter that declares none).
+FINITE = Bound()
+#: > 0: pressures, targets, thresholds, bands, lengths that must be something.
+POSITIVE = Bound(0.0, low_open=True)
+#: >= 0: gains, times, distances where 0 means "none" or "off".
+NON_NEGATIVE = Bound(0.0)
+#: > 0 or inf: a limit where inf means "no limit".
+POSITIVE_OR_INF = Bound(0.0, low_open=True, allow_inf=True)
+
+
+def between(low: float, high: float, low_open: bool = False, high_open: bool = False) -> Bound:
+    """The finite numbers from ``low`` to ``high`` (``between(0, 1, high_open=True)`` is [0, 1))."""
+    return Bound(float(low), float(high), low_open, high_open)
+
+
+def bounds_of(cls) -> dict[str, Bound]:
+    """The declared bounds of a node class: ``parameter_bounds`` merged over its bases (the most
+    derived class wins)."""
+    out: dict[str, Bound] = {}
+    for klass in reversed(getattr(cls, "__mro__", ())):
+        out.update(klass.__dict__.get("parameter_bounds", {}))
+    return out
+
+
+def _with_unit(x: Any, unit: str | None) -> str:
+    text = repr(float(x)) if isinstance(x, float) or not isinstance(x, numbers.Integral) else repr(int(x))
+    return f"{text} {unit}" if unit else text
+
+
+def check_bound(name: str | None, value: Any, bound: Bound | None, unit: str | None = None) -> None:
+    """Raise :class:`ParameterValueError` when ``value`` (a number, or a list of numbers checked
+    element by element) is outside ``bound``; values that are not numbers are left to the type
+    checks."""
+    if bound is None or isinstance(value, (bool, str, bytes)):
+        return
+    if _is_number(value):
+        problem = bound.problem(float(value))
+        if problem:
+            raise ParameterValueError(name, f"{problem} (got {_with_unit(value, unit)})")
+        return
+    if isinstance(value, typing.Iterable) and not isinstance(value, dict):
+        try:
+            items = list(value)
+        except TypeError:  # e.g. a 0-d numpy array
+            return
+        for i, v in enumerate(items):
+            if _is_number(v) and not isinstance(v, bool):
+                problem = bound.problem(float(v))
+                if problem:
+                    raise ParameterValueError(name, f"{problem} (got {_with_unit(v, unit)})", index=i)
+
+
+def _is_float_like(annotation: Any) -> bool:
+    return annotation is float or describe_type(annotation) == "list[float]"
+
+
+def _bound_for(cls, name: str, annotation: Any) -> Bound | None:
+    declared = bounds_of(cls).get(name) if cls is not None else None
+    if declared is not None:
+        return declared
+    return FINITE if _is_float_like(annotation) else None
+
+
+class BoundedParameters:
+    """Mixin of the node classes: a node built in Python gets the bound checks of the loader.
+
+    Each subclass's ``__init__`` is wrapped so that, when it is the instance's own ``__init__``
+    (the most derived one), the numbers passed to it are checked against the class's
+    ``parameter_bounds`` (and float parameters for finiteness) before it runs, raising
+    :class:`ParameterValueError` (a ValueError) such as
+    ``force_hold 'hold': target_pa must be > 0 (got -2000.0 Pa)``. Defaults are not checked
+    here (a test checks those of every registered class).
+    """
+
+    parameter_bounds: dict[str, Bound] = {}
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        init = cls.__dict__.get("__init__")
+        if init is None or getattr(init, "_checks_bounds", False):
+            return
+
+        @functools.wraps(init)
+        def __init__(self, *args, **kw):
+            if type(self).__init__ is __init__:
+                _check_arguments(type(self), init, self, args, kw)
+            init(self, *args, **kw)
+
+        __init__._checks_bounds = True  # type: ignore[attr-defined]
+        cls.__init__ = __init__  # type: ignore[method-assign]
+
+
+@functools.lru_cache(maxsize=None)
+def _specs(cls) -> dict[str, tuple[Bound, str | None]]:
+    """Parameter → (bound, unit) of the numbers a class checks at construction (none when its
+    type hints cannot be read, e.g. names imported only for type checkers)."""
+    out = {}
+    try:
+        params = parameters_of(cls)
+    except Exception:  # noqa: BLE001 - a leaf written for Python only must still build
+        return out
+    for p in params:
+        if p.bound is not None:
+            out[p.name] = (p.bound, p.unit)
+    return out
+
+
+def node_label(cls, name: Any) -> str:
+    """``force_hold 'hold'``: the YAML type of a node class (its class name when it is not
+    registered) and the node's name, for messages."""
+    from tactile_bt.tree.behaviours import DECORATORS, LEAVES  # lazy: that package imports this module
+
+    type_name = next((t for t, c in (*LEAVES.items(), *DECORATORS.items()) if c is cls), cls.__name__)
+    return f"{type_name} {str(name)!r}" if name is not None else type_name
+
+
+def _check_arguments(cls, init, self, args, kwargs) -> None:
+    try:
+        bound_args = inspect.signature(init).bind(self, *args, **kwargs)
+    except TypeError:
+        return  # the call itself raises the right error
+    specs = _specs(cls)
+    for name, value in bound_args.arguments.items():
+        if name in specs:
+            bound, unit = specs[name]
+            try:
+                check_bound(name, value, bound, unit)
+            except ParameterValueError as exc:
+                node = bound_args.arguments.get("name")
+                if node is None:
+                    default = inspect.signature(init).parameters.get("name")
+                    node = default.default if default is not None and default.default is not inspect.Parameter.empty else None
+                raise ParameterValueError(exc.parameter, exc.detail, exc.index, node_label(cls, node)) from None
+
+
+def unit_of(name: str, cls: type | None = None) -> str | None:
+    """Unit of a parameter: from ``cls.parameter_units`` when it names one, else from the
+    name's suffix (``target_pa`` → ``"Pa"``); None for plain numbers."""
+    declared = getattr(cls, "parameter_units", {}) if cls is not None else {}
+    if name in declared:
+        return declared[name]
+    for suffix, unit in UNITS.items():
+        if name.endswith(suffix):
+            return unit
+    return None
+
+
+def parse_quantity(text: str, unit: str | None) -> float:
+    """``"2 kPa"`` → 2000.0 for a parameter in Pa, ``"1500"`` → 1500.0 (a plain number is in the
+    parameter's SI unit); raises :class:`ParameterTypeError` on a unit of the wrong kind, a
+    malformed quantity, or a unit on a parameter that takes a plain number."""
+    match = _QUANTITY.match(text)
+    accepted = ACCEPTED_UNITS.get(unit or "")
+    if match and match.group(2) is None:
+        return float(match.group(1))
+    if accepted is None:
+        note = ""
+        if _LEADING_NUMBER.match(text):
+            note = f" (a plain number{f' in {unit}' if unit else ''}: this parameter takes no unit)"
+        raise ParameterTypeError("a number", text, f"expected a number, got {text!r}{note}")
+    if not match:
+        raise ParameterTypeError(f"a number in {unit}", text,
+                                 f"expected a number in {unit} (or a number with a unit: "
+                                 f"{', '.join(accepted)}), got {text!r}")
+    number, given = float(match.group(1)), match.group(2)
+    if given not in accepted:
+        from difflib import get_close_matches
+
+        close = get_close_matches(given, list(accepted), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ParameterTypeError(f"a number in {unit}", text,
+                                 f"unit {given!r} does not fit a value in {unit}{hint}; "
+                                 f"valid units: {', '.join(accepted)}")
+    return number * accepted[given]
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def describe_type(annotation: Any) -> str:
+    """Short human name of a parameter type, for errors and the reference tables."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Literal:
+        return " | ".join(str(a) for a in typing.get_args(annotation))
+    if annotation is bool:
+        return "bool"
+    if annotation is int:
+        return "int"
+    if annotation is float:
+        return "float"
+    if annotation is str:
+        return "str"
+    if origin in (Sequence, list, tuple) or annotation in (list, tuple):
+        return "list[float]"
+    return "any"
+
+
+def convert_parameter(value: Any, annotation: Any, unit: str | None = None, bound: Bound | None = None,
+                      name: str | None = None) -> Any:
+    """Check ``value`` against ``annotation`` (bool, int, float, str, Literal[...] or a sequence
+    of floats) and ``bound``, and return it in its Python form (floats as float, sequences as
+    tuples).
+
+    Strings holding a number are accepted for numbers: a plain number (``"1500"``) is in the
+    parameter's SI unit ``unit``; a number with a unit (``"2 kPa"``, ``"90 deg"``) is converted
+    when ``unit`` is one of :data:`ACCEPTED_UNITS`. Floats must be finite and inside ``bound``
+    (:data:`FINITE` when None); ints inside ``bound`` when given. Raises
+    :class:`ParameterTypeError` for a value of the wrong type and :class:`ParameterValueError`
+    (naming ``name``) for one out of bounds.
+    """
+    out = _convert(value, annotation, unit)
+    if bound is None and _is_float_like(annotation):
+        bound = FINITE
+    check_bound(name, out, bound, unit)
+    return out
+
+
+def _convert(value: Any, annotation: Any, unit: str | None) -> Any:
+    origin = typing.get_origin(annotation)
+    if origin is typing.Literal:
+        choices = typing.get_args(annotation)
+        if value not in choices or isinstance(value, bool):
+            from difflib import get_close_matches
+
+            close = get_close_matches(str(value), [str(c) for c in choices], n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ParameterTypeError("one of " + ", ".join(map(str, choices)), value,
+                                     f"unknown value {value!r}{hint}; valid: {', '.join(map(str, choices))}")
+        return value
+    if annotation is bool:
+        if not isinstance(value, (bool,)) and type(value).__name__ != "bool_":
+            raise ParameterTypeError("true or false", value)
+        return bool(value)
+    if annotation is int:
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+            raise ParameterTypeError("an integer", value)
+        return int(value)
+    if annotation is float:
+        if isinstance(value, str):
+            return parse_quantity(value, unit)
+        if not _is_number(value):
+            raise ParameterTypeError("a number", value)
+        return float(value)
+    if annotation is str:
+        if not isinstance(value, str):
+            raise ParameterTypeError("a string", value)
+        return value
+    if origin in (Sequence, list, tuple) or annotation in (list, tuple):
+        if isinstance(value, (str, bytes)) or not isinstance(value, typing.Iterable):
+            raise ParameterTypeError("a list of numbers", value)
+        out = []
+        for v in value:
+            if isinstance(v, str):
+                out.append(parse_quantity(v, unit))
+            elif _is_number(v):
+                out.append(float(v))
+            else:
+                raise ParameterTypeError("a list of numbers", value)
+        return tuple(out)
+    return value
+
+
+# ------------------------------------------------------------------------------ documentation
+
+
+@dataclass(frozen=True)
+class ParameterInfo:
+    """One documented parameter of a node class."""
+
+    name: str
+    annotation: Any
+    default: Any  # inspect.Parameter.empty when required
+    unit: str | None
+    doc: str
+    bound: Bound | None = None  # admissible numbers (None: not a number, or no check)
+
+    @property
+    def required(self) -> bool:
+        return self.default is inspect.Parameter.empty
+
+    @property
+    def type_name(self) -> str:
+        return describe_type(self.annotation)
+
+
+_ENTRY = re.compile(r"^([A-Za-z_]\w*(?:\s*,\s*[A-Za-z_]\w*)*)\s*(?::.*)?$")
+
+
+def _docstring_parameters(cls) -> dict[str, str]:
+    """Descriptions from the numpydoc ``Parameters`` sections of ``cls`` and its bases (the
+    most derived class's text wins)."""
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        lines = inspect.cleandoc(klass.__dict__.get("__doc__") or "").splitlines()
+        start = next((i + 2 for i in range(len(lines) - 1)
+                      if lines[i].strip() == "Parameters" and set(lines[i + 1].strip()) == {"-"}), None)
+        if start is None:
+            continue
+        names: list[str] = []
+        text: list[str] = []
+
+        def flush() -> None:
+            for n in names:
+                docs[n] = " ".join(text)
+
+        for i in range(start, len(lines)):
+            line = lines[i]
+            following = lines[i + 1].strip() if i + 1 < len(lines) else ""
+            if line.strip() and following and set(following) == {"-"}:
+                break  # the next section
+            entry = _ENTRY.match(line) if line and not line[0].isspace() else None
+            if entry:
+                flush()
+                names = [n.strip() for n in entry.group(1).split(",")]
+                text = []
+            elif line and not line[0].isspace():
+                break  # prose after the section
+            elif line.strip() and names:
+                text.append(line.strip())
+        flush()
+    return docs
+
+
+def parameters_of(cls) -> list[ParameterInfo]:
+    """The YAML parameters of a node class: its ``__init__`` keywords except ``self`` and
+    ``child``, with type hints, defaults, units and the docstring's description."""
+    hints = typing.get_type_hints(cls.__init__)
+    docs = _docstring_parameters(cls)
+    out = []
+    for name, p in inspect.signature(cls.__init__).parameters.items():
+        if name in ("self", "child") or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        annotation = hints.get(name, Any)
+        out.append(ParameterInfo(name, annotation, p.default, unit_of(name, cls), docs.get(name, ""),
+                                 _bound_for(cls, name, annotation)))
+    return out
+
+
+# ------------------------------------------------------------------------------ blackboard references
+
+
+def normalise_key(key: str) -> str:
+    """An absolute blackboard key (``"goal/pressure"`` → ``"/goal/pressure"``); ValueError when
+    the key is empty or malformed."""
+    if not isinstance(key, str):
+        raise ValueError(f"a blackboard key is a string like '/goal/pressure', got {key!r}")
+    k = key.strip()
+    if not k.startswith("/"):
+        k = "/" + k
+    if not re.fullmatch(r"(/[A-Za-z_][\w.\-]*)+", k):
+        raise ValueError(f"malformed blackboard key {key!r}: use names separated by '/', e.g. '/goal/pressure'")
+    return k
+
+
+def blackboard_references(behaviour: py_trees.behaviour.Behaviour) -> dict[str, tuple[str, str]]:
+    """The references bound to ``behaviour``: parameter → (absolute key, origin)."""
+    return dict(behaviour.__dict__.get("_blackboard_parameters", {}))
+
+
+def bind_blackboard(behaviour: py_trees.behaviour.Behaviour, parameter: str, key: str, origin: str = "") -> None:
+    """Make ``parameter`` of ``behaviour`` follow the blackboard ``key``.
+
+    The key is read each time the behaviour starts (``initialise``), checked against the
+    parameter's type and applied with ``behaviour.set_parameter`` (or ``setattr``). A missing key
+    or a bad value raises :class:`BlackboardReferenceError` naming ``origin`` (the tree file,
+    line and column of the reference), the parameter and the key. Nothing is added to the tick.
+
+    Works for any behaviour class whose ``__init__`` has the parameter; the loader calls it for
+    ``{blackboard: /key}`` and ``"@/key"`` values.
+    """
+    key = normalise_key(key)
+    params = {p.name: p for p in parameters_of(type(behaviour))}
+    if parameter not in params:
+        raise ValueError(f"{behaviour.name}: no parameter {parameter!r} to bind to {key!r}")
+    fixed = getattr(behaviour, "fixed_parameters", frozenset({"name"}))
+    if parameter in fixed:
+        raise ValueError(f"{behaviour.name}: parameter {parameter!r} is fixed at construction; "
+                         "it cannot come from the blackboard")
+    refs = behaviour.__dict__.get("_blackboard_parameters")
+    if refs is None:
+        refs = {}
+        behaviour._blackboard_parameters = refs  # type: ignore[attr-defined]
+        client = behaviour.attach_blackboard_client(name=f"{behaviour.name}/parameters")
+        behaviour._parameter_client = client  # type: ignore[attr-defined]
+        original = behaviour.initialise
+
+        def initialise() -> None:
+            _resolve(behaviour, params)
+            original()
+
+        initialise.__doc__ = original.__doc__
+        behaviour.initialise = initialise  # type: ignore[method-assign]
+    behaviour._parameter_client.register_key(key=key, access=Access.READ)  # type: ignore[attr-defined]
+    refs[parameter] = (key, origin)
+
+
+def _resolve(behaviour, params: dict[str, ParameterInfo]) -> None:
+    client = behaviour._parameter_client
+    for parameter, (key, origin) in behaviour._blackboard_parameters.items():
+        prefix = f"{origin}: " if origin else ""
+        field = f"{behaviour.name}.{parameter}"
+        if not client.exists(key):
+            raise BlackboardReferenceError(
+                f"{prefix}{field}: blackboard key {key!r} is not set; write it before the node starts "
+                f"(e.g. a py_trees.blackboard.Client with WRITE access to {key!r})")
+        value = client.get(key)
+        try:
+            info = params[parameter]
+            value = convert_parameter(value, info.annotation, info.unit, info.bound, parameter)
+            setter = getattr(behaviour, "set_parameter", None)
+            if setter is not None:
+                setter(parameter, value)
+            else:
+                setattr(behaviour, parameter, value)
+        except (ParameterTypeError, ValueError) as exc:
+            raise BlackboardReferenceError(f"{prefix}{field}: bad value from blackboard key {key!r}: {exc}") from None
