@@ -15,7 +15,8 @@ from scipy.spatial.transform import Rotation
 from tactile_bt.tree.behaviours import ContactCloud, CoverageStalled, RecordContacts, ScanDirection, StripeEnd
 from tactile_bt.tree.behaviours.record import imprint_points
 from tactile_bt.perception.features import extract
-from tactile_bt.mission.accuracy import (check_region, contact_continuity, reconstruction_metrics, region_mask,
+from tactile_bt.sim.region import check_region
+from tactile_bt.mission.accuracy import (contact_continuity, reconstruction_metrics, region_mask,
                                      sample_surface, true_surface)
 from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere

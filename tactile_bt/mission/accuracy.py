@@ -24,16 +24,8 @@ C = the contact cloud):
 ``coverage_total``     the same over the whole object T
 =====================  ===================================================================
 
-A scan region (``scan_region``; a mapping, from the scene or :func:`tactile_bt.run_mission`):
-
-``object``         index of the scanned object in the scene's ``objects`` (default: the first
-                   box, sphere, cylinder or mesh)
-``normal``         world direction [x, y, z]: keep the surface whose outward normal lies within
-``max_angle_deg``  of it (default 90°), e.g. ``normal: [0, 0, 1], max_angle_deg: 10`` is a box's
-                   top face
-``box``            ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` (m, world): keep the surface
-                   inside this box
-No region (or an empty mapping) is the whole object.
+The scan region (``scan_region``, from the scene or :func:`tactile_bt.run_mission`) is described
+in :mod:`tactile_bt.sim.region`; no region (or an empty mapping) is the whole object.
 """
 
 from __future__ import annotations
@@ -41,8 +33,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from tactile_bt.sim.region import check_region
+
 __all__ = ["true_surface", "scan_object", "sample_surface", "region_mask", "surface_distance",
-           "reconstruction_metrics", "check_region", "scan_settings", "contact_continuity", "evaluate_scan",
+           "reconstruction_metrics", "scan_settings", "contact_continuity", "evaluate_scan",
            "SAMPLE_SPACING_M", "COVERAGE_RADIUS_M"]
 
 #: Spacing (m) of the surface samples the metrics are computed on.
@@ -51,7 +45,6 @@ SAMPLE_SPACING_M = 0.0008
 COVERAGE_RADIUS_M = 0.002
 #: Thresholds (m) of the F-scores.
 FSCORE_THRESHOLDS_M = (0.001, 0.002)
-_REGION_KEYS = {"object", "normal", "max_angle_deg", "box"}
 
 
 def true_surface(obj):
@@ -96,32 +89,6 @@ def scan_object(scene, region: dict | None = None):
         if isinstance(obj, (Box, Sphere, Cylinder, MeshObject)):
             return i, obj
     return None, None
-
-
-def check_region(region) -> dict:
-    """Validate a ``scan_region`` mapping (see the module docstring); returns a plain dict."""
-    if region is None:
-        return {}
-    if not isinstance(region, dict):
-        raise ValueError(f"scan_region must be a mapping, got {region!r}")
-    unknown = set(region) - _REGION_KEYS
-    if unknown:
-        raise ValueError(f"scan_region: unknown key(s) {', '.join(sorted(unknown))}; valid: "
-                         f"{', '.join(sorted(_REGION_KEYS))}")
-    out = dict(region)
-    if "normal" in out:
-        n = np.asarray(out["normal"], dtype=float)
-        if n.shape != (3,) or not np.linalg.norm(n) > 0:
-            raise ValueError(f"scan_region.normal must be a non-zero [x, y, z], got {region['normal']!r}")
-        out["normal"] = (n / np.linalg.norm(n)).tolist()
-    if "max_angle_deg" in out and not 0 < float(out["max_angle_deg"]) <= 180:
-        raise ValueError(f"scan_region.max_angle_deg must be in (0, 180], got {out['max_angle_deg']!r}")
-    if "box" in out:
-        b = np.asarray(out["box"], dtype=float)
-        if b.shape != (2, 3) or np.any(b[0] > b[1]):
-            raise ValueError(f"scan_region.box must be [[xmin, ymin, zmin], [xmax, ymax, zmax]], got {region['box']!r}")
-        out["box"] = b.tolist()
-    return out
 
 
 def _lattice(n1: int, n2: int) -> np.ndarray:

@@ -28,24 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.sim.schema import COORD, NUMBER, STR, ListOf, Range
 from tactile_bt.control.spatial import integrate_spatial, make_pose
 
-__all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_FIELDS", "MOUNT_TYPES"]
+__all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_TYPES"]
 
 MOUNT_TYPES = ("cartesian", "lwr4")
-#: Field → kind, for the scene validation in :mod:`tactile_bt.sim.scene`. The joint stiffness
-#: and damping bounds are far beyond the LWR 4's (a few thousand N m/rad); they only keep the
-#: arm's contact solve away from overflows.
-MOUNT_FIELDS = {
-    "type": STR,
-    "position": ListOf(3, COORD),
-    "rpy_deg": ListOf(3, NUMBER),
-    "base": ListOf(3, COORD),
-    "stiffness": Range(0.0, 1e8, lo_open=True, unit="N m/rad"),
-    "damping": Range(0.0, 1e6, unit="N m s/rad"),
-}
-
 
 class MountError(ValueError):
     """The mount cannot be built as specified (the arm cannot reach the start pose).

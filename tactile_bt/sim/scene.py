@@ -25,9 +25,10 @@ from tactile_bt.sim.events import EventSchedule, ObjectEvent
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.pad import SensorModel, SensorParams
-from tactile_bt.robot.mounts import MOUNT_FIELDS, MountError, MountSpec
+from tactile_bt.robot.mounts import MountError, MountSpec
 from tactile_bt.sim.schema import (COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, NUMBER, POSITIVE, STR, ListOf,
                                    Range)
+from tactile_bt.sim.region import check_region
 from tactile_bt.sim.world import World
 from tactile_bt.yamlutil import Located, YamlError, load_located, parse_value, plain
 
@@ -90,7 +91,17 @@ SENSOR = {
     "noise_relative": Range(0.0, 1.0),
     "noise_common": Range(0.0, 1.0),
 }
-MOUNT = MOUNT_FIELDS
+#: The ``mount:`` section (:class:`tactile_bt.robot.mounts.MountSpec`). The joint stiffness and
+#: damping bounds are far beyond the LWR 4's (a few thousand N m/rad); they only keep the arm's
+#: contact solve away from overflows.
+MOUNT = {
+    "type": STR,
+    "position": ListOf(3, COORD),
+    "rpy_deg": ListOf(3, NUMBER),
+    "base": ListOf(3, COORD),
+    "stiffness": Range(0.0, 1e8, lo_open=True, unit="N m/rad"),
+    "damping": Range(0.0, 1e6, unit="N m s/rad"),
+}
 #: Fields every object has: its type, pose in the world and contact properties.
 _COMMON = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, NUMBER),
            "stiffness": Range(0.0, lo_open=True, unit="N/m"), "friction": NONNEGATIVE}
@@ -332,9 +343,7 @@ def build_scene(root: Located) -> Scene:
             where_ = section.value.get("type", section)
             raise where_.error(str(exc)) from None
     scene.objects = [_build_object(item, i, root.file) for i, item in enumerate(top.get("objects", []))]
-    if "scan_region" in top:  # what a surface scan sets out to cover (tactile_bt.mission.accuracy)
-        from tactile_bt.mission.accuracy import check_region
-
+    if "scan_region" in top:  # what a surface scan sets out to cover (tactile_bt.sim.region)
         try:
             check_region(plain(root.value["scan_region"]))
         except ValueError as exc:
