@@ -10,44 +10,18 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.arguments import check_output, nonnegative_int, one_line_warnings, positive_float, positive_int
+from tactile_bt.errors import TactileBtError
+
 __all__ = ["main"]
-
-
-def _check_output_file(path: str | None, option: str) -> None:
-    """Fail before any work when ``path`` (a file to write) cannot be written: it is a
-    directory, or its parent is missing or a file."""
-    if path is None:
-        return
-    target = Path(path)
-    if target.is_dir():
-        raise CommandLineError(f"{option} {path}: is a directory, expected a file name")
-    parent = target.parent
-    if not parent.exists():
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-        except OSError:
-            blocker = next((p for p in parent.parents if p.exists() and not p.is_dir()), parent)
-            raise CommandLineError(f"{option} {path}: cannot create the folder, {blocker} is a file") from None
-    elif not parent.is_dir():
-        raise CommandLineError(f"{option} {path}: {parent} is a file, not a folder")
-
-
-class CommandLineError(ValueError):
-    """A command-line value that cannot be used; printed as one ``error:`` line."""
 
 
 def _cmd_run(args) -> int:
     from tactile_bt.mission.run import calibration_path, run_mission
 
     if args.record is not None:  # before the mission: never overwrite a file unasked
-        from tactile_bt.sense.hardware.options import OutputPathError, check_output
-
-        try:
-            check_output(args.record, args.force)
-            check_output(calibration_path(args.record), args.force)
-        except OutputPathError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
+        check_output(args.record, args.force)
+        check_output(calibration_path(args.record), args.force)
     from tactile_bt.progress import Progress
 
     progress = Progress(args.duration or 0.0, unit="s", label="mission time")
@@ -82,15 +56,13 @@ def _print_report(r: dict) -> None:
 
 
 def _cmd_replay(args) -> int:
-    from tactile_bt.sense.hardware.options import one_line_warnings
-    from tactile_bt.sense.hardware.recording import RecordingError
-    from tactile_bt.mission.replay import ReplayError, replay_mission
+    from tactile_bt.mission.replay import replay_mission
 
     try:
         with one_line_warnings():
             result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
                                     orientation_method=args.orientation, out=args.out)
-    except (RecordingError, ReplayError, OSError) as exc:
+    except OSError as exc:  # an unreadable recording or calibration file
         print(f"error: {exc}", file=sys.stderr)
         return 2
     r = result.report
@@ -107,7 +79,8 @@ def _cmd_tree(args) -> int:
 
     from tactile_bt.tree.loader import format_parameters, load_tree
 
-    _check_output_file(args.dot, "--dot")
+    if args.dot:  # before any work
+        check_output(args.dot, force=True, option="--dot", create_parent=True)
     tree = load_tree(args.tree, params=args.param)
     print(py_trees.display.unicode_tree(tree.root))
     if args.params:
@@ -122,7 +95,8 @@ def _cmd_tree(args) -> int:
 def _cmd_view(args) -> int:
     from tactile_bt.mission.view import render_mission
 
-    _check_output_file(args.png, "--png")
+    if args.png:  # before any work
+        check_output(args.png, force=True, option="--png", create_parent=True)
     png = render_mission(Path(args.dir), args.png, color_by=args.color_by)
     if png is not None:
         print(f"rendered {png}")
@@ -167,7 +141,8 @@ def _cmd_stability(args) -> int:
 def _cmd_accuracy(args) -> int:
     from tactile_bt.perception.synthetic import cop_accuracy, orientation_comparison
 
-    _check_output_file(args.png, "--png")
+    if args.png:  # before any work
+        check_output(args.png, force=True, option="--png", create_parent=True)
     orientation = orientation_comparison(trials=args.trials, seed=args.seed)
     cop = cop_accuracy(trials=args.trials, seed=args.seed)
     if args.json:
@@ -206,7 +181,6 @@ def _cmd_accuracy(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from tactile_bt import __version__
-    from tactile_bt.sense.hardware.options import nonnegative_int, positive_float, positive_int
 
     parser = argparse.ArgumentParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -304,14 +278,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from tactile_bt.tree.parameters import BlackboardReferenceError
-    from tactile_bt.mission.run import MissionLengthError
-    from tactile_bt.mission.outputs import OutputPathError
-    from tactile_bt.yamlutil import YamlError
-
     try:
         return int(args.func(args) or 0)
-    except (YamlError, BlackboardReferenceError, CommandLineError, OutputPathError, MissionLengthError) as exc:
+    except TactileBtError as exc:  # bad input or set-up: one line, no traceback
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

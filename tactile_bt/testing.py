@@ -31,6 +31,7 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
+from tactile_bt.errors import UnknownNodeError
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import cycle_writer
 from tactile_bt.tree.behaviours.record import ContactCloud
@@ -154,13 +155,6 @@ class FramePerception:
         image = self.calibration.force_from_raw(raw) if raw is not None else np.asarray(force, dtype=float)
         f_raw = extract(image, self.threshold, self.method)
         return f_raw, self.smoother(f_raw)
-
-
-class UnknownNodeError(KeyError):
-    """A node name that is not in the tree under test (the message lists the known names)."""
-
-    def __str__(self) -> str:
-        return str(self.args[0]) if self.args else ""
 
 
 class LeafHarness:

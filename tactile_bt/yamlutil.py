@@ -9,6 +9,8 @@ import re
 
 import yaml
 
+from tactile_bt.errors import YamlError
+
 __all__ = ["Located", "YamlError", "Loader", "load_located", "decode_utf8", "parse_value", "where"]
 
 
@@ -33,22 +35,6 @@ Loader.add_implicit_resolver(
 def parse_value(text: str):
     """Parse one YAML scalar or flow value (``--set`` values) with :class:`Loader`."""
     return yaml.load(text, Loader=Loader)
-
-
-class YamlError(ValueError):
-    """A problem in a YAML file, with ``file:line:column`` in its message."""
-
-    def __init__(self, message: str, file: str | None = None, line: int | None = None, column: int | None = None):
-        self.file, self.line, self.column = file, line, column
-        location = ""
-        if file is not None:
-            location = f"{file}"
-            if line is not None:
-                location += f":{line}"
-                if column is not None:
-                    location += f":{column}"
-            location += ": "
-        super().__init__(location + message)
 
 
 @dataclass

@@ -8,7 +8,8 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.perception.features import extract, wrap_half_pi
 from tactile_bt.sim.events import EventSchedule, ObjectEvent
-from tactile_bt.sim.scene import SceneError, load_scene
+from tactile_bt.sim.scene import load_scene
+from tactile_bt.errors import SceneError
 from tactile_bt.sim.shapes import Box
 
 SCENE = """\

@@ -11,12 +11,8 @@ import pytest
 import serial
 
 from tactile_bt.sense.hardware import protocol as P
-from tactile_bt.sense.hardware.driver import (
-    SensorConnectionError,
-    SensorDisconnectedError,
-    SensorError,
-    SerialTactileSensor,
-)
+from tactile_bt.sense.hardware.driver import SerialTactileSensor
+from tactile_bt.errors import SensorConnectionError, SensorDisconnectedError, SensorError
 from tactile_bt.sense.hardware.emulator import DeviceEmulator, FaultConfig, synthetic_source
 from tactile_bt.sense.hardware.soak import DEFAULT_FAULTS, run_soak
 

@@ -15,14 +15,8 @@ import pytest
 from tactile_bt.sense.hardware.cli import main as cli_main
 from tactile_bt.sense.hardware.emulator import DeviceEmulator, synthetic_source
 from tactile_bt.sense.hardware.protocol import TactileFrame
-from tactile_bt.sense.hardware.recording import (
-    Recorder,
-    RecordingError,
-    RecordingWarning,
-    iter_chunks,
-    read_recording,
-    replay,
-)
+from tactile_bt.sense.hardware.recording import Recorder, iter_chunks, read_recording, replay
+from tactile_bt.errors import RecordingError, RecordingWarning
 
 
 def make_recording(path, n=50, chunk_frames=8, poses=True) -> np.ndarray:

@@ -19,7 +19,8 @@ from tactile_bt.tree.behaviours import (
     MissionTimeout,
     RecordContacts,
 )
-from tactile_bt.tree.loader import NODE_TYPES, TreeError
+from tactile_bt.tree.registry import NODE_TYPES
+from tactile_bt.errors import TreeError
 from tactile_bt.testing import LeafHarness, make_features
 
 REPO = Path(__file__).resolve().parents[1]
@@ -822,7 +823,7 @@ def test_blackboard_references_are_read_when_the_leaf_starts():
 
 
 def test_a_missing_blackboard_key_is_a_clear_error_at_initialise():
-    from tactile_bt.tree.behaviours import BlackboardReferenceError
+    from tactile_bt.errors import BlackboardReferenceError
 
     tree = load_tree(FILE, text=BB_TREE)  # loading does not need the key
     h = LeafHarness(tree.root)
@@ -835,7 +836,7 @@ def test_a_missing_blackboard_key_is_a_clear_error_at_initialise():
 
 
 def test_a_blackboard_value_of_the_wrong_type_is_an_error_at_initialise():
-    from tactile_bt.tree.behaviours import BlackboardReferenceError
+    from tactile_bt.errors import BlackboardReferenceError
 
     h = LeafHarness(load_tree(FILE, text=BB_TREE).root)
     h.set("/goal/pressure", "high")
@@ -894,7 +895,7 @@ def test_leaves_without_references_keep_their_plain_initialise():
 
 
 def test_describe_nodes_covers_every_type_with_units_and_defaults():
-    from tactile_bt.tree.loader import describe_nodes
+    from tactile_bt.tree.reference import describe_nodes
 
     docs = describe_nodes()
     assert set(docs) == set(NODE_TYPES) - {"subtree"}
@@ -911,8 +912,8 @@ def test_describe_nodes_covers_every_type_with_units_and_defaults():
 
 def test_docs_reference_is_generated_from_the_registry():
     """docs/trees.md holds the output of reference_markdown() between its markers; regenerate
-    with `python -m tactile_bt.tree.loader docs/trees.md`."""
-    from tactile_bt.tree.loader import reference_markdown
+    with `python -m tactile_bt.tree.reference docs/trees.md`."""
+    from tactile_bt.tree.reference import reference_markdown
 
     text = (REPO / "docs" / "trees.md").read_text(encoding="utf-8")
     begin, end = "<!-- BEGIN describe_nodes -->\n", "<!-- END describe_nodes -->"
@@ -946,7 +947,8 @@ def test_register_a_leaf_of_your_own():
     from typing import Literal
 
     from tactile_bt.tree.behaviours import LEAVES, TactileBehaviour
-    from tactile_bt.tree.loader import describe_nodes, register_node
+    from tactile_bt.tree.reference import describe_nodes
+    from tactile_bt.tree.registry import register_node
 
     class Tap(TactileBehaviour):
         """Succeed on a tap.

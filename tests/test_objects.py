@@ -14,7 +14,8 @@ from scipy.spatial.transform import Rotation
 from tactile_bt import defaults, load_tree, run_mission
 from tactile_bt.perception.features import extract, wrap_half_pi
 from tactile_bt.sim.objects import CONTACT_REFERENCE_AREA_M2, Cable, SimObject, Table, object_pose
-from tactile_bt.sim.scene import SceneError, load_scene
+from tactile_bt.sim.scene import load_scene
+from tactile_bt.errors import SceneError
 from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.control.spatial import make_pose

@@ -11,7 +11,8 @@ import pytest
 from tactile_bt import load_tree
 from tactile_bt.tree.behaviours import ForceHold
 from tactile_bt.cli import main
-from tactile_bt.tree.loader import TreeError, format_parameters
+from tactile_bt.tree.loader import format_parameters
+from tactile_bt.errors import TreeError
 from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,17 +10,10 @@ import pytest
 
 from tactile_bt import load_tree
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES, ForceHold, Repeat, Retry, TactileServo
-from tactile_bt.tree.parameters import (
-    FINITE,
-    Bound,
-    ParameterValueError,
-    bounds_of,
-    check_bound,
-    convert_parameter,
-    parameters_of,
-)
+from tactile_bt.tree.parameters import FINITE, Bound, bounds_of, check_bound, convert_parameter, parameters_of
+from tactile_bt.errors import ParameterValueError
 from tactile_bt.cli import main
-from tactile_bt.tree.loader import TreeError
+from tactile_bt.errors import TreeError
 from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
 
 FILE = "trees/x.yaml"
@@ -282,7 +275,7 @@ def test_convert_parameter_and_bounds_directly():
     ],
 )
 def test_blackboard_values_get_the_same_checks(value, needle):
-    from tactile_bt.tree.behaviours import BlackboardReferenceError
+    from tactile_bt.errors import BlackboardReferenceError
 
     tree = load_tree(FILE, text='root:\n  force_hold: {name: hold, target_pa: "@/goal/pressure"}\n')
     h = LeafHarness(tree)

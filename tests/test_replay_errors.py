@@ -14,7 +14,8 @@ import pytest
 
 from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.cli import main
-from tactile_bt.sense.hardware.recording import Recorder, RecordingWarning, iter_chunks, read_header, read_recording
+from tactile_bt.sense.hardware.recording import Recorder, iter_chunks, read_header, read_recording
+from tactile_bt.errors import RecordingWarning
 from tactile_bt.mission.replay import replay_mission
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,7 +7,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from tactile_bt.sim.objects import Cable, Table
-from tactile_bt.sim.scene import SceneError, load_scene
+from tactile_bt.sim.scene import load_scene
+from tactile_bt.errors import SceneError
 from tactile_bt.sim.pad import SensorParams
 
 REPO = Path(__file__).resolve().parents[1]

@@ -11,7 +11,8 @@ from numpy.testing import assert_allclose
 from tactile_bt.cli import main
 from tactile_bt.robot.mounts import MountSpec
 from tactile_bt.sim.objects import Cable
-from tactile_bt.sim.scene import (MAX_START_DEPTH_M, SENSOR, Scene, SceneError, check_seed, load_scene)
+from tactile_bt.sim.scene import MAX_START_DEPTH_M, SENSOR, Scene, check_seed, load_scene
+from tactile_bt.errors import SceneError
 from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.experiments.stability import ROOT, extreme_cases, stiffness_cases
 

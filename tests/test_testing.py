@@ -135,7 +135,7 @@ def test_twist_parts_errors_and_blackboard_writes():
 
 
 def test_twist_of_an_unknown_name_is_an_error_that_lists_the_names():
-    from tactile_bt.testing import UnknownNodeError
+    from tactile_bt.errors import UnknownNodeError
 
     tree = py_trees.composites.Parallel(
         "p", policy=py_trees.common.ParallelPolicy.SuccessOnOne(), children=[ForceHold(), Centre()])
@@ -166,7 +166,7 @@ def test_leaf_harness_takes_a_loaded_tree_or_its_root():
 
 
 def test_guided_slide_without_its_twist_key_fails_clearly_when_it_starts():
-    from tactile_bt.tree.behaviours import BlackboardReferenceError
+    from tactile_bt.errors import BlackboardReferenceError
 
     h = LeafHarness(GuidedSlide(twist_key="/planner/twist"), dt=DT)
     with pytest.raises(BlackboardReferenceError, match="'/planner/twist'.*not set"):

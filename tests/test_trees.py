@@ -14,7 +14,9 @@ from py_trees.common import Status
 from tactile_bt import load_tree
 from tactile_bt.tree.behaviours import Approach, ContactLost, ServoLeaf
 from tactile_bt.cli import main as cli
-from tactile_bt.tree.loader import NODE_TYPES, TreeError, describe_nodes
+from tactile_bt.tree.reference import describe_nodes
+from tactile_bt.tree.registry import NODE_TYPES
+from tactile_bt.errors import TreeError
 from tactile_bt.testing import LeafHarness, contact_frame, make_features
 
 REPO = Path(__file__).resolve().parents[1]

@@ -10,16 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.errors import OutputPathError
 from tactile_bt import defaults
 
 __all__ = ["OUTPUT_FILES", "OutputPathError", "prepare_output_dir", "plot_errors", "write_outputs", "write_ply", "read_ply_points"]
 
 #: Every file a mission may write into its output directory.
 OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "contacts.ply", "surface.ply", "render.png")
-
-
-class OutputPathError(ValueError):
-    """An output path that cannot be written (it is a file, or lies under one)."""
 
 
 def prepare_output_dir(out: str | Path) -> Path:

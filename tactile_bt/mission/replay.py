@@ -16,14 +16,11 @@ import numpy as np
 import py_trees
 from py_trees.common import Status
 
+from tactile_bt.errors import ReplayError
 from tactile_bt import defaults
 from tactile_bt.sense.calibration import TactelCalibration
 
 __all__ = ["replay_mission", "ReplayError"]
-
-
-class ReplayError(ValueError):
-    """A replay cannot start: its calibration or pace is unusable; the message names which."""
 
 
 def replay_mission(tree, recording: str | Path, calibration: TactelCalibration | str | Path | None = None,
@@ -48,7 +45,8 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     for an unreadable or empty recording and :class:`ReplayError` for an unusable calibration
     or speed.
     """
-    from tactile_bt.sense.hardware.recording import RecordingError, RecordingWarning, read_recording, torn_tail_message
+    from tactile_bt.sense.hardware.recording import read_recording, torn_tail_message
+    from tactile_bt.errors import RecordingError, RecordingWarning
     from tactile_bt.tree.loader import load_tree
     from tactile_bt.mission.run import ControlLoop, MissionLog, MissionResult, _failure_reason, calibration_path
     from tactile_bt.mission.metrics import controlled_feature_metrics

@@ -16,6 +16,7 @@ import numpy as np
 import py_trees
 from py_trees.common import Status
 
+from tactile_bt.errors import MissionLengthError
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours import NAMESPACE, TactileBehaviour
 from tactile_bt.tree.behaviours.base import cycle_writer
@@ -377,10 +378,6 @@ def run_mission(
 
 #: Largest mission the preallocated log holds (cycles): 10 min at 1.9 kHz, 76 min at 250 Hz.
 MAX_CYCLES = 1_140_000
-
-
-class MissionLengthError(ValueError):
-    """A mission budget that gives no cycle, or more than the log can hold."""
 
 
 def _check_cycles(n_cycles: int, duration: float, rate_hz: float) -> None:

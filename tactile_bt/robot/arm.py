@@ -48,7 +48,7 @@ from tactile_bt.robot.equilibrium import (
     EquilibriumSolverMixin,
     SettleResult,
     WrenchFn,
-    _Source,
+    WrenchSource,
     bracket_stiffness,
     point_wrench,
 )
@@ -237,7 +237,7 @@ class CompliantArm(EquilibriumSolverMixin):
             if qd.shape != (7,) or not np.all(np.isfinite(qd)):
                 raise ValueError(f"q_dot_cmd must be 7 finite numbers, got {q_dot_cmd!r}")
             self.q_eq = self.kin.clip(self.q_eq + dt * qd)
-        src = _Source(self.contact if wrench_fn is None else wrench_fn, wrench_g)
+        src = WrenchSource(self.contact if wrench_fn is None else wrench_fn, wrench_g)
         q_prev = self.q.copy()
         if self.mode == "quasi_static":
             res = self._solve(src, self.q_eq, q_prev, self.D / dt, q_prev, self.tol, self.max_iter)
@@ -286,7 +286,7 @@ class CompliantArm(EquilibriumSolverMixin):
         """
         q_eq = self.q_eq.copy() if q_eq is None else self.kin.clip(self.kin._check_q(q_eq))
         start = self.q.copy() if q0 is None else self.kin._check_q(q0).copy()
-        src = _Source(self.contact if wrench_fn is None else wrench_fn, wrench_g)
+        src = WrenchSource(self.contact if wrench_fn is None else wrench_fn, wrench_g)
         res = self._solve(src, q_eq, start, np.zeros(7), start,
                           self.tol if tol is None else float(tol),
                           200 if max_iter is None else int(max_iter))
@@ -303,7 +303,7 @@ class CompliantArm(EquilibriumSolverMixin):
         self.wrench_g = res.wrench_g
         self.last_solve = res
 
-    def _dynamic_step(self, src: _Source, dt: float) -> SettleResult:
+    def _dynamic_step(self, src: WrenchSource, dt: float) -> SettleResult:
         """Linearly implicit Euler of ``M q_ddot = K (q_eq - q) - D q_dot + J^T w``."""
         q, qd = self.q, self.q_dot
         T, J = self.kin.pose_and_jacobian(q)

@@ -147,7 +147,7 @@ class SettleResult:
     converged: bool
 
 
-class _Source:
+class WrenchSource:
     """Uniform access to a constant wrench or a contact model, with validation and counting."""
 
     def __init__(self, wrench_fn: WrenchFn | None, wrench_g) -> None:
@@ -186,7 +186,7 @@ class EquilibriumSolverMixin:
     was built with) and ``_kin_cache`` (pose and Jacobian of the last posture).
     """
 
-    def _fd_stiffness(self, src: _Source, T: np.ndarray, w: np.ndarray, widen: float = 1.0) -> np.ndarray:
+    def _fd_stiffness(self, src: WrenchSource, T: np.ndarray, w: np.ndarray, widen: float = 1.0) -> np.ndarray:
         """``K_x = -dw/dxi`` by finite differences along the six spatial unit twists.
 
         Forward differences with :attr:`fd_step`; with ``widen > 1``, central differences over
@@ -221,7 +221,7 @@ class EquilibriumSolverMixin:
         R[k, j], R[j, k] = s, -s
         return R @ T
 
-    def _solve(self, src: _Source, q_eq, q_start, c, q_ref, tol: float, max_iter: int) -> SettleResult:
+    def _solve(self, src: WrenchSource, q_eq, q_start, c, q_ref, tol: float, max_iter: int) -> SettleResult:
         """Safeguarded quasi-Newton on ``K (q - q_eq) + c (q - q_ref) - J^T w = 0``.
 
         The Jacobian ``H = K + c - G + J^T K_x J`` is built from the contact stiffness (given,

@@ -37,7 +37,6 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import adjoint, invert, make_pose, skew
 from tactile_bt.robot.lwr4_params import (
-    _DEG,
     DEFAULT_MOUNT_OFFSET_M,
     DH_A,
     DH_ALPHA,
@@ -49,7 +48,7 @@ from tactile_bt.robot.lwr4_params import (
     QD_MAX,
     default_mount,
 )
-from tactile_bt.robot.resolved_rate import RateSolution, ResolvedRateMixin, _dls
+from tactile_bt.robot.resolved_rate import RateSolution, ResolvedRateMixin, damped_least_squares
 
 __all__ = [
     "DH_D",
@@ -257,7 +256,7 @@ class LWR4Kinematics(ResolvedRateMixin):
         tol_rot: float = 1e-6,
         max_iter: int = 500,
         null_gain: float = 0.2,
-        limit_margin: float = 5.0 * _DEG,
+        limit_margin: float = float(np.deg2rad(5.0)),
     ) -> np.ndarray:
         """Joint angles that put the sensor frame at ``T_target`` (iterative, damped Newton).
 
@@ -310,7 +309,7 @@ class LWR4Kinematics(ResolvedRateMixin):
             step_len = np.linalg.norm(e)
             if step_len > 0.1:  # stay in the region where the linearisation holds
                 e *= 0.1 / step_len
-            dq, _, _ = _dls(Jh, e, 1e-3, 1e-2, null_gain * (rest - q))
+            dq, _, _ = damped_least_squares(Jh, e, 1e-3, 1e-2, null_gain * (rest - q))
             biggest = np.max(np.abs(dq))
             if biggest > 0.2:
                 dq *= 0.2 / biggest

@@ -28,22 +28,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tactile_bt.errors import MountError
 from tactile_bt.control.spatial import integrate_spatial, make_pose
 
 __all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_TYPES"]
 
 MOUNT_TYPES = ("cartesian", "lwr4")
-
-class MountError(ValueError):
-    """The mount cannot be built as specified (the arm cannot reach the start pose).
-
-    ``field`` names the ``mount.`` field most likely to blame (``base`` or ``rpy_deg``).
-    """
-
-    def __init__(self, message: str, field: str = "") -> None:
-        super().__init__(message)
-        self.field = field
-
 
 class CartesianMount:
     """An ideal Cartesian mount: the pad follows the commanded base-frame twist exactly.

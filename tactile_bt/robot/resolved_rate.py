@@ -2,7 +2,7 @@
 
 :class:`ResolvedRateMixin` gives :class:`~tactile_bt.robot.kinematics.LWR4Kinematics` its
 ``resolved_rate`` method (joint velocities for a spatial twist of the sensor), with the
-diagnostics :class:`RateSolution`; :func:`_dls`, the damped least-squares solve, also serves
+diagnostics :class:`RateSolution`; :func:`damped_least_squares`, the damped least-squares solve, also serves
 the pose IK ``LWR4Kinematics.ik_pose``.  :mod:`tactile_bt.robot.kinematics` re-exports them.
 
 Method
@@ -134,7 +134,7 @@ class ResolvedRateMixin:
             lo = np.minimum((self.q_min - q) / dt, 0.0)
             hi = np.maximum((self.q_max - q) / dt, 0.0)
 
-        qd, lam, smin = _dls(Jh, Vh, damping, sigma_threshold, null)
+        qd, lam, smin = damped_least_squares(Jh, Vh, damping, sigma_threshold, null)
         free = np.ones(7, dtype=bool)
         if not ((qd >= lo).all() and (qd <= hi).all()):
             # Saturation in the null space: fix the worst offender at its bound, re-solve the rest.
@@ -148,7 +148,7 @@ class ResolvedRateMixin:
                 if not free.any():
                     break
                 rest = Vh - Jh[:, ~free] @ qd[~free]
-                qd[free] = _dls(Jh[:, free], rest, damping, sigma_threshold,
+                qd[free] = damped_least_squares(Jh[:, free], rest, damping, sigma_threshold,
                                 None if null is None else null[free])[0]
             qd = np.minimum(np.maximum(qd, lo), hi)
         scale = 1.0
@@ -164,7 +164,7 @@ class ResolvedRateMixin:
         return qd
 
 
-def _dls(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None):
+def damped_least_squares(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None):
     """Damped least squares ``J^T (J J^T + lambda^2 I)^-1 V`` with the damping schedule.
 
     Returns ``(x, lambda, sigma_min)``; ``null`` (optional) is projected on the null space of

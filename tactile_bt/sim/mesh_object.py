@@ -57,6 +57,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from tactile_bt.errors import MeshError
 from tactile_bt.sim.objects import SimObject
 
 __all__ = ["MeshObject", "MeshGrid", "MeshError", "mesh_grid", "build_grid", "load_mesh", "point_triangle_distance",
@@ -74,10 +75,6 @@ NEAR_M = 6.0e-3
 SUBDIVIDE_CELLS = 2.0
 #: Refuse grids larger than this (memory and load time).
 MAX_GRID_POINTS = 3.0e7
-
-
-class MeshError(ValueError):
-    """A mesh file that cannot be used (unreadable, empty, not closed)."""
 
 
 @dataclass(frozen=True, eq=False)

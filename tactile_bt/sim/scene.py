@@ -6,7 +6,7 @@ bounds, integers, fixed-length lists), and errors name the file, the line and th
 ``--set`` style overrides (``objects.1.stiffness=1e5``) go through the same checks. Loading
 then checks the start: the arm reaches the start pose, and the pad starts at most
 :data:`MAX_START_DEPTH_M` inside any object. Every error is a :class:`SceneError` (the
-:class:`~tactile_bt.yamlutil.YamlError` the command line reports in one line). The schema, with
+:class:`~tactile_bt.errors.YamlError` the command line reports in one line). The schema, with
 units, bounds and defaults, is documented in ``sim/README.md``.
 """
 
@@ -25,16 +25,17 @@ from tactile_bt.sim.events import EventSchedule, ObjectEvent
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.pad import SensorModel, SensorParams
-from tactile_bt.robot.mounts import MountError, MountSpec
+from tactile_bt.robot.mounts import MountSpec
+from tactile_bt.errors import MountError
 from tactile_bt.sim.schema import (COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, NUMBER, POSITIVE, STR, ListOf,
                                    Range)
 from tactile_bt.sim.region import check_region
 from tactile_bt.sim.world import World
-from tactile_bt.yamlutil import Located, YamlError, load_located, parse_value, plain
+from tactile_bt.yamlutil import Located, load_located, parse_value, plain
+from tactile_bt.errors import SceneError, YamlError
 
-__all__ = ["Scene", "load_scene", "apply_overrides", "SceneError", "check_seed"]
+__all__ = ["Scene", "load_scene", "apply_overrides", "check_seed"]
 
-SceneError = YamlError
 
 #: Control rates (Hz) a scene may ask for: from a slow but stable loop up to the pad's frame
 #: rate (``tactile-bt stability`` runs 100–1900 Hz).
@@ -289,7 +290,8 @@ def _path_segment(seg: Located, field_name: str) -> dict:
 
 def _build_mesh(item: Located, f: dict, where_: str, scene_file: str):
     """A mesh object; its file is relative to the scene file's directory. Imports trimesh."""
-    from tactile_bt.sim.mesh_object import MeshError, MeshObject
+    from tactile_bt.sim.mesh_object import MeshObject
+    from tactile_bt.errors import MeshError
 
     located = item.value["path"]
     path = Path(f.pop("path")).expanduser()

@@ -36,13 +36,14 @@ the tree reads (``"KEY=VALUE"``, as ``--blackboard``), written when the tree is 
 
 Every error names the file, line and column and the field, and suggests the closest valid name.
 
-This module builds and checks trees; the pieces around it live next to it and are re-exported
-here: the node registry (:mod:`tactile_bt.tree.registry`: :data:`COMPOSITES`,
-:func:`node_types`, :func:`register_node`), the located errors (:mod:`tactile_bt.tree.errors`:
-:data:`TreeError`), the named subtrees and their ``$param`` substitution
-(:mod:`tactile_bt.tree.subtrees`) and the node reference (:mod:`tactile_bt.tree.reference`:
-:func:`describe_nodes` lists every node type with its parameters, docs/trees.md is made from it;
-``python -m tactile_bt.tree.loader docs/trees.md`` regenerates it).
+This module builds and checks trees; the pieces around it live next to it: the node registry
+(:mod:`tactile_bt.tree.registry`: :data:`COMPOSITES`, :func:`node_types`, :func:`register_node`),
+the located messages (:mod:`tactile_bt.tree.diagnostics`), the named subtrees and their
+``$param`` substitution (:mod:`tactile_bt.tree.subtrees`) and the node reference
+(:mod:`tactile_bt.tree.reference`: :func:`describe_nodes` lists every node type with its
+parameters; ``python -m tactile_bt.tree.reference docs/trees.md`` regenerates docs/trees.md).
+
+Layer: tree.
 """
 
 from __future__ import annotations
@@ -56,63 +57,16 @@ import py_trees
 import yaml
 from py_trees.common import Access
 
+from tactile_bt.errors import ParameterTypeError, ParameterValueError, TreeError
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES, NAMESPACE
-from tactile_bt.tree.parameters import (
-    Bound,
-    ParameterTypeError,
-    ParameterValueError,
-    bind_blackboard,
-    convert_parameter,
-    describe_type,
-    node_label,
-    normalise_key,
-    parameters_of,
-)
-from tactile_bt.tree.registry import COMPOSITES, POLICIES, node_types
-from tactile_bt.tree.subtrees import _PARAM_REF, _parse_subtrees, _Subtree, _SubtreeExpansion
-from tactile_bt.tree.errors import _error, _hint, _origin
+from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
+from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
+                                        normalise_key, parameters_of)
+from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, node_types
+from tactile_bt.tree.subtrees import PARAM_REF, Subtree, SubtreeExpansion, parse_subtrees
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
 
-# Re-exported: these names lived in this module before it was split; code imports them from here.
-from tactile_bt.tree.registry import _IDENTIFIER, _MISSING, _NODES, NODE_TYPES, register_node  # noqa: F401, E402
-from tactile_bt.tree.subtrees import (  # noqa: F401, E402
-    _DEFINITION_KEYS,
-    _SUBTREE_KEYS,
-    _parameter_uses,
-    _parse_definition,
-    _substitute,
-)
-from tactile_bt.tree.errors import TreeError, _message_of, _with_context  # noqa: F401, E402
-from tactile_bt.yamlutil import YamlError  # noqa: F401, E402
-from tactile_bt.tree.reference import (  # noqa: F401, E402
-    _BEGIN,
-    _COMPOSITE_SUMMARY,
-    _END,
-    _NODE,
-    NodeDoc,
-    _format_default,
-    _summary,
-    describe_nodes,
-    reference_markdown,
-    update_reference,
-)
-
-__all__ = [
-    "load_tree",
-    "LoadedTree",
-    "NodeParameters",
-    "format_parameters",
-    "build_node",
-    "TreeError",
-    "NODE_TYPES",
-    "node_types",
-    "register_node",
-    "COMPOSITES",
-    "describe_nodes",
-    "reference_markdown",
-    "update_reference",
-    "NodeDoc",
-]
+__all__ = ["load_tree", "LoadedTree", "NodeParameters", "format_parameters", "build_node"]
 
 _TOP_KEYS = ("name", "description", "include", "subtrees", "root")
 
@@ -135,20 +89,20 @@ def _check_type(value: Located, annotation: Any, field: str, unit: str | None = 
                 convert_parameter(element.value, float, unit, bound, name)
             except ParameterTypeError as exc:
                 problem = exc.detail or f"expected a list of numbers, got {plain(v)!r}"
-                raise _error(element, f"{field}: {_hinted(problem, element.value)}", field) from None
+                raise located_error(element, f"{field}: {_hinted(problem, element.value)}", field) from None
             except ParameterValueError as exc:
                 message = ParameterValueError(name, exc.detail, i).message
-                raise _error(element, f"{node}: {message}", field) from None
+                raise located_error(element, f"{node}: {message}", field) from None
     try:
         return convert_parameter(plain(v), annotation, unit, bound, name)
     except ParameterTypeError as exc:
-        raise _error(value, f"{field}: {_hinted(str(exc), plain(v))}", field) from None
+        raise located_error(value, f"{field}: {_hinted(str(exc), plain(v))}", field) from None
     except ParameterValueError as exc:
-        raise _error(value, f"{node}: {exc.message}", field) from None
+        raise located_error(value, f"{node}: {exc.message}", field) from None
 
 
 def _hinted(problem: str, value: Any) -> str:
-    if isinstance(value, str) and _PARAM_REF.match(value.strip()):
+    if isinstance(value, str) and PARAM_REF.match(value.strip()):
         problem += f" ({value!r} names a subtree parameter: it works only inside a subtree's body)"
     return problem
 
@@ -167,7 +121,7 @@ def _reference(value: Located, field: str) -> str | None:
     try:
         return normalise_key(key)
     except ValueError as exc:
-        raise _error(key_loc or value, f"{field}: {exc}", field) from None
+        raise located_error(key_loc or value, f"{field}: {exc}", field) from None
 
 
 # ------------------------------------------------------------------------------ building
@@ -220,7 +174,7 @@ def _class_default_name(cls, type_name: str) -> str:
 
 
 @dataclass
-class _Builder(_SubtreeExpansion):
+class _Builder(SubtreeExpansion):
     """Builds nodes from located YAML, expanding the uses of the named ``subtrees``.
 
     Every composite, decorator and leaf gets an index in build order (the same in every pass
@@ -231,7 +185,7 @@ class _Builder(_SubtreeExpansion):
     resolved parameters of every node built.
     """
 
-    subtrees: dict[str, _Subtree] = field(default_factory=dict)
+    subtrees: dict[str, Subtree] = field(default_factory=dict)
     stack: list[str] = field(default_factory=list)
     survey: bool = False
     overrides: dict[int, dict[str, Located]] = field(default_factory=dict)
@@ -241,7 +195,7 @@ class _Builder(_SubtreeExpansion):
 
     def node(self, node: Located, default_name: str | None = None) -> py_trees.behaviour.Behaviour:
         if not isinstance(node.value, dict) or len(node.value) != 1:
-            raise _error(node, "a node is a mapping with exactly one key, its type "
+            raise located_error(node, "a node is a mapping with exactly one key, its type "
                                f"(one of: {', '.join(self.types())})")
         (type_name, body), = node.value.items()
         key_loc = node.keys[type_name]
@@ -258,7 +212,7 @@ class _Builder(_SubtreeExpansion):
             return self.subtree_node(body, key_loc)
         if type_name in self.subtrees:
             return self.expand(self.subtrees[type_name], body, key_loc)
-        raise _error(key_loc, f"unknown node type {type_name!r}{_hint(type_name, self.types())}", type_name)
+        raise located_error(key_loc, f"unknown node type {type_name!r}{did_you_mean(type_name, self.types())}", type_name)
 
     def types(self) -> list[str]:
         return [*node_types(), *sorted(self.subtrees)]
@@ -271,7 +225,7 @@ class _Builder(_SubtreeExpansion):
         if body.value is None:
             body_items: dict[str, Located] = {}
         elif not isinstance(body.value, dict):
-            raise _error(body, f"{type_name}: parameters must be a mapping, got {plain(body.value)!r}", type_name)
+            raise located_error(body, f"{type_name}: parameters must be a mapping, got {plain(body.value)!r}", type_name)
         else:
             body_items = body.value
         params = {p.name: p for p in parameters_of(cls)}
@@ -282,23 +236,23 @@ class _Builder(_SubtreeExpansion):
                 continue
             field = f"{type_name}.{key}"
             if key not in params:
-                raise _error(body.keys[key], f"{type_name}: unknown parameter {key!r}{_hint(key, params)}; "
+                raise located_error(body.keys[key], f"{type_name}: unknown parameter {key!r}{did_you_mean(key, params)}; "
                                              f"valid: {', '.join(params) or 'none'}", field)
             locs[key] = value
             ref = _reference(value, field)
             if ref is not None:
                 if key in fixed:
-                    raise _error(value, f"{field}: this parameter is fixed when the tree is built; "
+                    raise located_error(value, f"{field}: this parameter is fixed when the tree is built; "
                                         "it cannot come from the blackboard", field)
                 if params[key].required:
-                    raise _error(value, f"{field}: a required parameter cannot come from the blackboard", field)
-                refs[key] = (ref, _origin(value))
+                    raise located_error(value, f"{field}: a required parameter cannot come from the blackboard", field)
+                refs[key] = (ref, origin_of(value))
                 continue
             p = params[key]
             kwargs[key] = _check_type(value, p.annotation, field, p.unit, p.bound, label)
         missing = [n for n, p in params.items() if p.required and n not in kwargs and n not in refs]
         if missing:
-            raise _error(body, f"{type_name}: missing parameter(s) {', '.join(missing)}", type_name)
+            raise located_error(body, f"{type_name}: missing parameter(s) {', '.join(missing)}", type_name)
         return kwargs, locs, refs
 
     def _construct(self, cls, type_name: str, kwargs: dict, locs: dict, refs: dict, key_loc: Located, **extra):
@@ -311,7 +265,7 @@ class _Builder(_SubtreeExpansion):
                 if re.search(rf"\b{re.escape(name)}\b", message):
                     loc, field = locs[name], f"{type_name}.{name}"
                     break
-            raise _error(loc, message, field) from None
+            raise located_error(loc, message, field) from None
         for param, (key, origin) in refs.items():
             bind_blackboard(node, param, key, origin)
         return node
@@ -327,7 +281,7 @@ class _Builder(_SubtreeExpansion):
                 values[p.name], sources[p.name] = f"@{refs[p.name][0]}", "blackboard"
             elif p.name in kwargs:
                 values[p.name] = kwargs[p.name]
-                sources[p.name] = _origin(locs[p.name]) if p.name not in override else str(locs[p.name].file)
+                sources[p.name] = origin_of(locs[p.name]) if p.name not in override else str(locs[p.name].file)
             else:
                 values[p.name], sources[p.name] = p.default, "default"
         self.records.append(NodeParameters(type_name, kind, node.name, node, values, units, sources, key_loc))
@@ -355,7 +309,7 @@ class _Builder(_SubtreeExpansion):
             extra = ""
             if isinstance(body.value, dict) and "children" in body.value:
                 where, extra = body.keys["children"], " (not 'children': a decorator has exactly one child)"
-            raise _error(where, f"{type_name}: a decorator needs its node under 'child'{extra}", f"{type_name}.child")
+            raise located_error(where, f"{type_name}: a decorator needs its node under 'child'{extra}", f"{type_name}.child")
         override = self.overrides.get(index, {})
         name = _node_name(body, default_name or _class_default_name(cls, type_name), override)
         if self.survey:
@@ -375,18 +329,18 @@ class _Builder(_SubtreeExpansion):
     # -- composites ---------------------------------------------------------------------------
     def composite(self, type_name: str, body: Located, key_loc: Located, default_name: str | None, index: int = -1):
         if not isinstance(body.value, dict):
-            raise _error(body, f"{type_name}: expected a mapping with 'children'", type_name)
+            raise located_error(body, f"{type_name}: expected a mapping with 'children'", type_name)
         spec = {p.name: p for p in COMPOSITES[type_name]}
         values, locs = {}, {}
         for key, value in body.value.items():
             field = f"{type_name}.{key}"
             if key not in spec:
-                raise _error(body.keys[key], f"{type_name}: unknown parameter {key!r}{_hint(key, spec)}; "
+                raise located_error(body.keys[key], f"{type_name}: unknown parameter {key!r}{did_you_mean(key, spec)}; "
                                              f"valid: {', '.join(spec)}", field)
             if key == "children":
                 continue
             if _reference(value, field) is not None:
-                raise _error(value, f"{field}: composite parameters cannot come from the blackboard", field)
+                raise located_error(value, f"{field}: composite parameters cannot come from the blackboard", field)
             values[key] = _check_type(value, spec[key].annotation, field)
             locs[key] = value
         name = values.get("name", default_name or type_name)
@@ -395,14 +349,14 @@ class _Builder(_SubtreeExpansion):
         record = len(self.records)  # the composite's record goes before its children's
         children_loc = body.value.get("children")
         if children_loc is None or not isinstance(children_loc.value, list) or not children_loc.value:
-            raise _error(children_loc or body, f"{type_name}: 'children' must be a non-empty list of nodes",
+            raise located_error(children_loc or body, f"{type_name}: 'children' must be a non-empty list of nodes",
                          f"{type_name}.children")
         children = [self.node(c) for c in children_loc.value]
         if type_name == "parallel":
             policy = values.get("policy", "success_on_all")
             sync = values.get("synchronise", False)
             if sync and policy != "success_on_all":
-                raise _error(body.value["synchronise"], "parallel.synchronise: only meaningful with policy "
+                raise located_error(body.value["synchronise"], "parallel.synchronise: only meaningful with policy "
                                                         "success_on_all", "parallel.synchronise")
             composite = py_trees.composites.Parallel(name=name, policy=POLICIES[policy](sync))
         else:
@@ -496,13 +450,13 @@ def _resolve_overrides(params, surveyed: list[_Surveyed]) -> dict[int, dict[str,
                 raise _option_error(source, f"{node!r} is a {composite.type} (a composite): --param sets the "
                                             f"parameters of leaves and decorators; nodes: {', '.join(names)}")
             candidates = [*names, *dict.fromkeys(s.type for s in targets)]
-            raise _option_error(source, f"no node named {node!r}{_hint(node, candidates)}; "
+            raise _option_error(source, f"no node named {node!r}{did_you_mean(node, candidates)}; "
                                         f"nodes: {', '.join(names) or 'none'}")
         for s in chosen:
             params = [p.name for p in parameters_of(s.cls)]
             if param not in params:
                 raise _option_error(source, f"{node_label(s.cls, s.name)} has no parameter {param!r}"
-                                            f"{_hint(param, params)}; parameters: {', '.join(params)}", key)
+                                            f"{did_you_mean(param, params)}; parameters: {', '.join(params)}", key)
             overrides.setdefault(s.index, {})[param] = value
     return overrides
 
@@ -560,7 +514,7 @@ def _blackboard_values(items, root, records: list[NodeParameters]) -> dict[str, 
         except ValueError as exc:
             raise _option_error(source, str(exc)) from None
         if key not in read:
-            raise _option_error(source, f"the tree reads no blackboard key {key!r}{_hint(key, read)}; "
+            raise _option_error(source, f"the tree reads no blackboard key {key!r}{did_you_mean(key, read)}; "
                                         f"it reads: {', '.join(read) or 'none'}")
         converted = plain(value)
         for record, name in _key_uses(key, records):
@@ -616,7 +570,7 @@ def _format_value(value: Any) -> str:
         return f"{value:.6g}"
     if isinstance(value, (tuple, list)):
         return "[" + ", ".join(_format_value(v) for v in value) + "]"
-    if value is _MISSING:
+    if value is MISSING:
         return "required"
     return str(value)
 
@@ -645,32 +599,32 @@ def _discard(node: py_trees.behaviour.Behaviour) -> None:
             client.unregister(clear=False)
 
 
-def _collect_subtrees(doc: Located, path: Path, table: dict[str, _Subtree], seen: set[Path]) -> None:
+def _collect_subtrees(doc: Located, path: Path, table: dict[str, Subtree], seen: set[Path]) -> None:
     if "include" in doc.value:
         inc = doc.value["include"]
         entries = inc.value if isinstance(inc.value, list) else [inc]
         for entry in entries:
             if not isinstance(entry.value, str):
-                raise _error(entry, f"include: expected a file name, got {plain(entry.value)!r}", "include")
+                raise located_error(entry, f"include: expected a file name, got {plain(entry.value)!r}", "include")
             target = (path.parent / entry.value).resolve()
             if target in seen:
                 continue
             seen.add(target)
             if not target.is_file():
-                raise _error(entry, f"include: no such file {entry.value!r} (looked for {target})", "include")
+                raise located_error(entry, f"include: no such file {entry.value!r} (looked for {target})", "include")
             included = load_located(target)
             if not isinstance(included.value, dict):
-                raise _error(included, "an included file must be a mapping with 'subtrees'")
+                raise located_error(included, "an included file must be a mapping with 'subtrees'")
             _check_top_keys(included)
             _collect_subtrees(included, target, table, seen)
     if "subtrees" in doc.value:
-        _parse_subtrees(doc, table)
+        parse_subtrees(doc, table)
 
 
 def _check_top_keys(doc: Located) -> None:
     for key in doc.value:
         if key not in _TOP_KEYS:
-            raise _error(doc.keys[key], f"unknown top-level key {key!r}{_hint(key, _TOP_KEYS)}; "
+            raise located_error(doc.keys[key], f"unknown top-level key {key!r}{did_you_mean(key, _TOP_KEYS)}; "
                                         f"valid: {', '.join(_TOP_KEYS)}", key)
 
 
@@ -705,12 +659,12 @@ def load_tree(path: str | Path, text: str | None = None, params=None, blackboard
     """
     doc = load_located(path, text)
     if not isinstance(doc.value, dict):
-        raise _error(doc, "a tree file must be a mapping with a 'root' node")
+        raise located_error(doc, "a tree file must be a mapping with a 'root' node")
     _check_top_keys(doc)
     if "root" not in doc.value:
-        raise _error(doc, "a tree file needs a 'root' node", "root")
+        raise located_error(doc, "a tree file needs a 'root' node", "root")
     here = Path(str(path)).resolve()
-    subtrees: dict[str, _Subtree] = {}
+    subtrees: dict[str, Subtree] = {}
     _collect_subtrees(doc, here, subtrees, {here})
     overrides: dict[int, dict[str, Located]] = {}
     if params:
@@ -735,10 +689,3 @@ def load_tree(path: str | Path, text: str | None = None, params=None, blackboard
     if blackboard:
         tree.blackboard_values = _blackboard_values(blackboard, root, records)
     return tree
-
-
-if __name__ == "__main__":  # python -m tactile_bt.tree.loader docs/trees.md
-    import sys
-
-    for target in sys.argv[1:] or ["docs/trees.md"]:
-        print(f"{target}: {'updated' if update_reference(target) else 'up to date'}")

@@ -30,6 +30,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Access
 
+from tactile_bt.errors import BlackboardReferenceError, ParameterTypeError, ParameterValueError
 from tactile_bt import defaults
 
 __all__ = [
@@ -76,38 +77,6 @@ UNITS: dict[str, str] = {"_pa": "Pa", "_mps": "m/s", "_rps": "rad/s", "_rad": "r
 #: start with a digit, so the digits of a plain number are never split into number and "unit".
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)(?:\s*([^\s\d.+\-].*?))?\s*$")
 _LEADING_NUMBER = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)")
-
-
-class ParameterTypeError(TypeError):
-    """A value does not fit a parameter's type; ``expected`` says what would."""
-
-    def __init__(self, expected: str, value: Any, detail: str = "") -> None:
-        self.expected, self.value, self.detail = expected, value, detail
-        super().__init__(detail or f"expected {expected}, got {value!r}")
-
-
-class ParameterValueError(ValueError):
-    """A number outside its parameter's :class:`Bound` (or not finite). ``detail`` says what is
-    wrong without the parameter's name (``"must be > 0 (got -2000.0 Pa)"``); ``parameter``
-    names it, ``index`` is the element of a list (None for a single number)."""
-
-    def __init__(self, parameter: str | None, detail: str, index: int | None = None, node: str | None = None) -> None:
-        self.parameter, self.detail, self.index, self.node = parameter, detail, index, node
-        label = parameter or "value"
-        if index is not None:
-            label += f"[{index}]"
-        super().__init__(f"{node + ': ' if node else ''}{label} {detail}")
-
-    @property
-    def message(self) -> str:
-        """The message without the node (``target_pa must be > 0 (got -2000.0 Pa)``)."""
-        return str(ParameterValueError(self.parameter, self.detail, self.index))
-
-
-class BlackboardReferenceError(RuntimeError):
-    """A blackboard reference could not be resolved when its node started (missing key or a
-    value of the wrong type). The message names the tree file, line and column of the
-    reference, the node and parameter, and the key."""
 
 
 # ------------------------------------------------------------------------------ bounds

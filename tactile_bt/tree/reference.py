@@ -5,7 +5,7 @@ defaults and meanings, taken from :data:`tactile_bt.tree.registry.COMPOSITES` an
 docstrings of the behaviour classes; :func:`reference_markdown` renders that as Markdown tables
 and :func:`update_reference` rewrites the generated part of a Markdown file.  All of them are
 re-exported by :mod:`tactile_bt.tree.loader`; regenerate the reference with
-``python -m tactile_bt.tree.loader docs/trees.md``.
+``python -m tactile_bt.tree.reference docs/trees.md``.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import py_trees
 
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
 from tactile_bt.tree.parameters import ParameterInfo, describe_type, parameters_of
-from tactile_bt.tree.registry import _MISSING, COMPOSITES
+from tactile_bt.tree.registry import MISSING, COMPOSITES
 
 __all__ = ["NodeDoc", "describe_nodes", "reference_markdown", "update_reference"]
 
@@ -59,7 +59,7 @@ def describe_nodes() -> dict[str, NodeDoc]:
                "parallel": py_trees.composites.Parallel}[name]
         out[name] = NodeDoc(name, "composite", cls, _COMPOSITE_SUMMARY[name], list(params))
     for name, cls in DECORATORS.items():
-        child = ParameterInfo("child", _NODE, _MISSING, None, "The decorated node.")
+        child = ParameterInfo("child", _NODE, MISSING, None, "The decorated node.")
         out[name] = NodeDoc(name, "decorator", cls, _summary(cls), [*parameters_of(cls), child])
     for name, cls in LEAVES.items():
         out[name] = NodeDoc(name, "leaf", cls, _summary(cls), parameters_of(cls))
@@ -68,7 +68,7 @@ def describe_nodes() -> dict[str, NodeDoc]:
 
 def _format_default(value: Any) -> str:
     """A parameter default as written in the reference tables (YAML spelling)."""
-    if value is _MISSING:
+    if value is MISSING:
         return "required"
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -118,3 +118,10 @@ def update_reference(path: str | Path) -> bool:
     if new != text:
         path.write_text(new, encoding="utf-8")
     return new != text
+
+
+if __name__ == "__main__":  # python -m tactile_bt.tree.reference docs/trees.md
+    import sys
+
+    for target in sys.argv[1:] or ["docs/trees.md"]:
+        print(f"{target}: {'updated' if update_reference(target) else 'up to date'}")

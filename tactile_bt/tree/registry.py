@@ -25,7 +25,7 @@ POLICIES = {
     "success_on_all": lambda sync: py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=sync),
     "success_on_one": lambda sync: py_trees.common.ParallelPolicy.SuccessOnOne(),
 }
-_MISSING = inspect.Parameter.empty  # the default of a required parameter
+MISSING = inspect.Parameter.empty  # the default of a required parameter
 _NODES = "list of nodes"  # the "type" of a composite's children
 
 #: Parameters of the composites (py_trees' Sequence, Selector and Parallel).
@@ -35,13 +35,13 @@ COMPOSITES: dict[str, list[ParameterInfo]] = {
         ParameterInfo("memory", bool, True, None,
                       "Resume at the running child on the next tick (true) or start again from the first "
                       "child every tick (false)."),
-        ParameterInfo("children", _NODES, _MISSING, None, "The children, ticked in order until one does not succeed."),
+        ParameterInfo("children", _NODES, MISSING, None, "The children, ticked in order until one does not succeed."),
     ],
     "selector": [
         ParameterInfo("name", str, "selector", None, "Name of the node."),
         ParameterInfo("memory", bool, True, None,
                       "Resume at the running child (true) or re-check higher-priority children every tick (false)."),
-        ParameterInfo("children", _NODES, _MISSING, None, "The children, tried in order until one does not fail."),
+        ParameterInfo("children", _NODES, MISSING, None, "The children, tried in order until one does not fail."),
     ],
     "parallel": [
         ParameterInfo("name", str, "parallel", None, "Name of the node."),
@@ -50,12 +50,12 @@ COMPOSITES: dict[str, list[ParameterInfo]] = {
                       "one fails."),
         ParameterInfo("synchronise", bool, False, None,
                       "With success_on_all: do not tick children that already succeeded."),
-        ParameterInfo("children", _NODES, _MISSING, None,
+        ParameterInfo("children", _NODES, MISSING, None,
                       "The children, all ticked every tick: running servo leaves superimpose their "
                       "projections (paper Eq. 3)."),
     ],
 }
-_IDENTIFIER = re.compile(r"^[A-Za-z_]\w*$")  # node type, subtree and parameter names
+IDENTIFIER = re.compile(r"^[A-Za-z_]\w*$")  # node type, subtree and parameter names
 
 #: The built-in node types when the module was imported (:func:`node_types` also lists later
 #: registrations).
@@ -74,7 +74,7 @@ def register_node(type_name: str, cls: type, decorator: bool = False) -> None:
     ``int``, ``bool``, ``str``, ``Literal[...]``, ``Sequence[float]``) and defaults, exactly as
     for the built-in leaves; a decorator class takes its child as the first argument ``child``.
     """
-    if not _IDENTIFIER.match(type_name):
+    if not IDENTIFIER.match(type_name):
         raise ValueError(f"node type {type_name!r} must be an identifier")
     if type_name in node_types():
         raise ValueError(f"node type {type_name!r} exists already")

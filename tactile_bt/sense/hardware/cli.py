@@ -19,24 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.errors import CommandLineError
 from tactile_bt.defaults import COLS, MAX_SENSOR_RATE_HZ, ROWS
-from tactile_bt.sense.hardware.options import (
-    OutputPathError,
-    check_output,
-    device_rate,
-    fault_spec,
-    nonnegative_int,
-    one_line_warnings,
-    positive_float,
-    positive_int,
-)
+from tactile_bt.arguments import check_output, nonnegative_int, one_line_warnings, positive_float, positive_int
+from tactile_bt.sense.hardware.options import device_rate, fault_spec
+from tactile_bt.errors import OutputPathError
 
 #: Largest array the protocol carries: the configuration announces 2 * rows * cols as a u16.
 MAX_TACTELS = 0xFFFF // 2
-
-
-class _InputError(Exception):
-    """A command's input is unusable; the message names the option or file."""
 
 
 def _interrupt(_signum: int, _frame: object) -> None:
@@ -50,7 +40,7 @@ def _on_terminate() -> None:
 
 def _check_shape(rows: int, cols: int) -> None:
     if rows * cols > MAX_TACTELS:
-        raise _InputError(f"--rows {rows} --cols {cols}: {rows * cols} tactels, the protocol carries at most "
+        raise CommandLineError(f"--rows {rows} --cols {cols}: {rows * cols} tactels, the protocol carries at most "
                           f"{MAX_TACTELS}")
 
 
@@ -64,7 +54,7 @@ def _cell_order(path: str | None, rows: int, cols: int) -> np.ndarray | None:
         order = np.load(path) if path.endswith(".npy") else np.loadtxt(path, dtype=int, ndmin=1).ravel()
         cell_permutation(order, rows, cols)
     except (OSError, ValueError) as exc:
-        raise _InputError(f"--cell-order {path}: {exc}") from None
+        raise CommandLineError(f"--cell-order {path}: {exc}") from None
     return order
 
 
@@ -89,11 +79,11 @@ def _print_stats(stats: object, file=sys.stderr) -> None:
 
 def cmd_stream(args: argparse.Namespace) -> int:
     """Print frame rate, peak and total counts once per ``--every`` seconds."""
-    from tactile_bt.sense.hardware.driver import SensorError
+    from tactile_bt.errors import SensorError
 
     try:
         cell_order = _sensor_input(args)
-    except _InputError as exc:
+    except CommandLineError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _on_terminate()
@@ -128,13 +118,13 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     An existing ``--out`` file is kept unless ``--force``; the check comes before the port opens.
     """
-    from tactile_bt.sense.hardware.driver import SensorError
+    from tactile_bt.errors import SensorError
     from tactile_bt.sense.hardware.recording import Recorder
 
     try:
         check_output(args.out, args.force)
         cell_order = _sensor_input(args)
-    except (OutputPathError, _InputError) as exc:
+    except (OutputPathError, CommandLineError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _on_terminate()
@@ -170,11 +160,11 @@ def cmd_record(args: argparse.Namespace) -> int:
 def cmd_emulate(args: argparse.Namespace) -> int:
     """Open a pty pair, print the slave path on stdout, serve until Ctrl-C/SIGTERM/``--duration``."""
     from tactile_bt.sense.hardware.emulator import DeviceEmulator, synthetic_source
-    from tactile_bt.sense.hardware.recording import RecordingError
+    from tactile_bt.errors import RecordingError
 
     try:
         rows, cols = _emulated_shape(args)
-    except (_InputError, RecordingError, OSError) as exc:
+    except (CommandLineError, RecordingError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _on_terminate()
@@ -206,20 +196,21 @@ def _emulated_shape(args: argparse.Namespace) -> tuple[int, int]:
         rows, cols = args.rows or ROWS, args.cols or COLS
     else:
         if not Path(args.recording).is_file():
-            raise _InputError(f"--recording {args.recording}: no such file")
+            raise CommandLineError(f"--recording {args.recording}: no such file")
         rows, cols, _meta, _off = read_header(args.recording)
         given = " ".join(f"--{k} {v}" for k, v in (("rows", args.rows), ("cols", args.cols)) if v is not None)
         if (args.rows or rows, args.cols or cols) != (rows, cols):
-            raise _InputError(f"{given}: the frames of --recording {args.recording} are {rows}x{cols}")
+            raise CommandLineError(f"{given}: the frames of --recording {args.recording} are {rows}x{cols}")
         if sum(len(c.timestamps) for c in iter_chunks(args.recording)) == 0:
-            raise _InputError(f"--recording {args.recording}: the recording holds no complete frame")
+            raise CommandLineError(f"--recording {args.recording}: the recording holds no complete frame")
     _check_shape(rows, cols)
     return rows, cols
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
     """Print a recording's frames (a summary, or one line per frame with ``--frames``), no tree."""
-    from tactile_bt.sense.hardware.recording import RecordingError, read_header, replay
+    from tactile_bt.sense.hardware.recording import read_header, replay
+    from tactile_bt.errors import RecordingError
 
     try:
         rows, cols, meta, _ = read_header(args.recording)

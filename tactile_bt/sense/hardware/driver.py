@@ -18,6 +18,7 @@ from typing import Iterator, Sequence
 import numpy as np
 import serial
 
+from tactile_bt.errors import SensorConnectionError, SensorDisconnectedError, SensorError
 from tactile_bt.defaults import COLS, ROWS
 from tactile_bt.sense.hardware import protocol as P
 from tactile_bt.sense.hardware.protocol import TactileFrame
@@ -30,18 +31,6 @@ DEFAULT_TIMEOUT_S = 1.0
 #: Frames kept in the arrival-order queue for frames() (about 2 s at 1.9 kHz).
 DEFAULT_QUEUE_FRAMES = 4096
 _POLL_S = 0.02  # reader thread: serial read timeout; an idle poll settles the parser
-
-
-class SensorError(RuntimeError):
-    """Base class of the driver's errors; the message names the port."""
-
-
-class SensorConnectionError(SensorError):
-    """The port could not be opened or the device did not configure."""
-
-
-class SensorDisconnectedError(SensorError):
-    """The port vanished while streaming (cable unplugged, emulator closed)."""
 
 
 @dataclass(frozen=True, slots=True)

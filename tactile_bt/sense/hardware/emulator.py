@@ -29,7 +29,7 @@ import numpy as np
 from tactile_bt.defaults import ADC_MAX, COLS, MAX_SENSOR_RATE_HZ, ROWS
 from tactile_bt.sense.hardware import protocol as P
 from tactile_bt.sense.hardware.framing import HEADER
-from tactile_bt.sense.hardware.faults import _GARBAGE_ALPHABET  # noqa: F401 - re-exported
+from tactile_bt.sense.hardware.faults import GARBAGE_ALPHABET  # noqa: F401 - re-exported
 from tactile_bt.sense.hardware.faults import (
     EmulatorLog,
     FaultConfig,
@@ -191,7 +191,7 @@ class DeviceEmulator:
         """
         out = bytearray(data)
         if junk and out and not self._may_follow(out[0]):
-            out[0] = next(int(v) for v in _GARBAGE_ALPHABET if self._may_follow(v))
+            out[0] = next(int(v) for v in GARBAGE_ALPHABET if self._may_follow(v))
         filler = self._filler(bytes(out)) if self._open else b""
         if filler and self._write(filler):
             self._track(filler, 1)
@@ -214,7 +214,7 @@ class DeviceEmulator:
     def _filler(self, data: bytes) -> bytes:
         if not self._completes_with_zero_xor(data):
             return b""
-        for value in _GARBAGE_ALPHABET:  # each open candidate rules out at most one value
+        for value in GARBAGE_ALPHABET:  # each open candidate rules out at most one value
             if self._may_follow(value) and not self._completes_with_zero_xor(bytes([value]) + data):
                 return bytes([int(value)])
         raise RuntimeError("no filler byte breaks every torn datagram")  # pragma: no cover

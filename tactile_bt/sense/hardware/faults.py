@@ -45,7 +45,7 @@ __all__ = [
 #: Largest garbage burst (bytes) a fault configuration may ask for.
 GARBAGE_MAX_LIMIT = 65536
 _PROBABILITIES = ("garbage", "bitflip", "tear", "pause", "header")
-_GARBAGE_ALPHABET = np.array([b for b in range(256) if b != HDR1], dtype=np.uint8)
+GARBAGE_ALPHABET = np.array([b for b in range(256) if b != HDR1], dtype=np.uint8)
 
 
 @dataclass
@@ -223,4 +223,4 @@ def tear(datagram: bytes, rng: np.random.Generator) -> bytes:
 
 def garbage_burst(faults: FaultConfig, rng: np.random.Generator) -> bytes:
     """1..``faults.garbage_max`` random bytes, none of them ``0xF0`` (so no header starts)."""
-    return rng.choice(_GARBAGE_ALPHABET, size=int(rng.integers(1, max(1, faults.garbage_max) + 1))).tobytes()
+    return rng.choice(GARBAGE_ALPHABET, size=int(rng.integers(1, max(1, faults.garbage_max) + 1))).tobytes()

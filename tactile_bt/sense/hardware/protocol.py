@@ -28,6 +28,7 @@ from typing import Sequence
 
 import numpy as np
 
+from tactile_bt.errors import ProtocolError
 from tactile_bt.defaults import COLS, ROWS
 from tactile_bt.sense.hardware.framing import (  # noqa: F401 - re-exported
     CMD_CONFIG_REQUEST,
@@ -54,7 +55,6 @@ from tactile_bt.sense.hardware.framing import (  # noqa: F401 - re-exported
     checksum,
 )
 from tactile_bt.sense.hardware.parser import (  # noqa: F401 - re-exported
-    _NEED_MORE,
     Command,
     CommandParser,
     ConfigAnswer,
@@ -62,12 +62,7 @@ from tactile_bt.sense.hardware.parser import (  # noqa: F401 - re-exported
     DatagramParser,
     DeviceError,
     ParserStats,
-    _decode,
 )
-
-
-class ProtocolError(ValueError):
-    """Raised on malformed input to the builders or decoders of this module."""
 
 
 def _seal(body: bytes) -> bytes:

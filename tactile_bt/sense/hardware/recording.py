@@ -30,6 +30,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from tactile_bt.errors import RecordingError, RecordingWarning
 from tactile_bt.defaults import COLS, ROWS
 from tactile_bt.sense.hardware.protocol import TactileFrame
 
@@ -38,14 +39,6 @@ FORMAT_VERSION = 1
 CHUNK_MAGIC = b"CHNK"
 _HEAD = struct.Struct("<8sHHHHI")
 _CHUNK = struct.Struct("<4sIII")
-
-
-class RecordingError(ValueError):
-    """A recording file is not readable; the message names the file and the byte offset."""
-
-
-class RecordingWarning(UserWarning):
-    """A recording replays, but not as it was made: a torn tail, a missing calibration file."""
 
 
 def torn_tail_message(path: str | Path, offset: int, frames: int) -> str:

@@ -112,7 +112,8 @@ def run_soak(seconds: float, rate_hz: float = MAX_SENSOR_RATE_HZ, faults: str | 
 def main(argv: list[str] | None = None) -> int:
     """Command line entry point; returns the exit code."""
     ap = argparse.ArgumentParser(prog="python -m tactile_bt.sense.hardware.soak", description=__doc__.split("\n\n")[0])
-    from tactile_bt.sense.hardware.options import device_rate, fault_spec, nonnegative_int, positive_float
+    from tactile_bt.arguments import nonnegative_int, positive_float
+    from tactile_bt.sense.hardware.options import device_rate, fault_spec
 
     ap.add_argument("--seconds", type=positive_float, default=10.0, help="duration of each phase in s (default 10)")
     ap.add_argument("--rate", type=device_rate, default=MAX_SENSOR_RATE_HZ, help="frame rate in Hz (default 1900)")

@@ -9,7 +9,8 @@ from tactile_bt.tree.behaviours.base import NAMESPACE, ServoLeaf, TactileBehavio
 from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
-from tactile_bt.tree.parameters import BlackboardReferenceError, bind_blackboard
+from tactile_bt.tree.parameters import bind_blackboard
+from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.tree.behaviours.record import ContactCloud, RecordContacts
 from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo

@@ -11,7 +11,8 @@ from py_trees.common import Access, Status
 
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BlackboardReferenceError, normalise_key
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
+from tactile_bt.errors import BlackboardReferenceError
 
 _STORAGE = py_trees.blackboard.Blackboard.storage
 

@@ -1,0 +1,97 @@
+"""Checks of command-line arguments shared by every ``tactile-bt`` command.
+
+The ``type=`` validators raise :class:`argparse.ArgumentTypeError`, so argparse rejects a bad
+value before anything runs, with one line naming the option. :func:`check_output` checks an
+output file before any work (and refuses to overwrite one without ``--force`` where a file is
+precious). :func:`one_line_warnings` shows the :class:`~tactile_bt.errors.RecordingWarning` of a
+replay as ``warning: ...`` lines.
+
+Layer: base (imports only :mod:`tactile_bt.errors`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import sys
+import warnings
+from pathlib import Path
+from typing import Callable, Iterator
+
+from tactile_bt.errors import OutputPathError
+
+__all__ = ["validator", "positive_float", "positive_int", "nonnegative_int", "check_output", "one_line_warnings"]
+
+
+def validator(convert: Callable[[str], float], ok: Callable[[float], bool], expected: str) -> Callable[[str], float]:
+    def parse(text: str):
+        try:
+            value = convert(text)
+        except ValueError:
+            value = None
+        if value is None or not ok(value):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+        return value
+
+    parse.__name__ = expected
+    return parse
+
+
+#: A finite number > 0 (rates, durations, timeouts, intervals, speeds).
+positive_float = validator(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
+#: An integer >= 1 (rows, columns, baud rates, frames per chunk).
+positive_int = validator(int, lambda v: v >= 1, "an integer >= 1")
+#: An integer >= 0 (seeds).
+nonnegative_int = validator(int, lambda v: v >= 0, "an integer >= 0")
+
+def check_output(path: str | os.PathLike, force: bool = False, option: str | None = None,
+                 create_parent: bool = False) -> Path:
+    """Check that ``path`` can be written as a file, before anything is written.
+
+    Raises :class:`OutputPathError` when the path is a directory, its parent is missing (or
+    cannot be made, with ``create_parent``), not a directory or not writable, or the file
+    exists and ``force`` is false. ``option`` (e.g. ``"--png"``) starts the message.
+    """
+    p = Path(path)
+    parent = p.parent
+    label = f"{option} {p}" if option else str(p)
+    if p.is_dir():
+        raise OutputPathError(f"{label} is a directory, not a file")
+    if create_parent and not parent.exists():
+        blocker = next((q for q in parent.parents if q.exists() and not q.is_dir()), None)
+        if blocker is not None:
+            raise OutputPathError(f"{label}: cannot create the folder, {blocker} is a file")
+        parent.mkdir(parents=True, exist_ok=True)
+    if not parent.exists():
+        raise OutputPathError(f"{label}: directory {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputPathError(f"{label}: {parent} is not a directory")
+    if p.exists() or p.is_symlink():
+        if not force:
+            raise OutputPathError(f"{label} exists (use --force to overwrite)")
+        if not os.access(p, os.W_OK):
+            raise OutputPathError(f"{label} is not writable")
+    elif not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{label}: directory {parent} is not writable")
+    return p
+
+
+@contextlib.contextmanager
+def one_line_warnings() -> Iterator[None]:
+    """Within the block, show every RecordingWarning at once as ``warning: <message>`` on stderr."""
+    from tactile_bt.errors import RecordingWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", RecordingWarning)
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, RecordingWarning):
+                print(f"warning: {message}", file=sys.stderr, flush=True)
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
