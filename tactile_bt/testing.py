@@ -33,8 +33,8 @@ from py_trees.common import Access, Status
 
 from tactile_bt.errors import UnknownNodeError
 from tactile_bt import defaults
-from tactile_bt.tree.behaviours.base import cycle_writer
-from tactile_bt.tree.behaviours.record import ContactCloud
+from tactile_bt.tree.blackboard import cycle_writer
+from tactile_bt.contacts.cloud import ContactCloud
 from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.control.servo import ServoCommand
 from tactile_bt.perception.features import ContactFeatures, extract

@@ -15,11 +15,11 @@ from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
+from tactile_bt.contacts.cloud import ContactCloud
 from tactile_bt.tree.behaviours import (
     AlignEdge,
     Approach,
     Centre,
-    ContactCloud,
     ContactLost,
     ForceHold,
     ForceLimit,

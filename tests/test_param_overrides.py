@@ -170,7 +170,7 @@ def test_blackboard_values_are_checked_and_written_when_the_tree_is_set_up():
 
 def test_the_mission_loop_writes_the_blackboard_values():
     from tactile_bt.sense.calibration import TactelCalibration
-    from tactile_bt.mission.run import ControlLoop
+    from tactile_bt.mission.loop import ControlLoop
 
     tree = tree_with(blackboard={"/goal/pressure": 1600.0, "/planner/twist": [0.0] * 6, "/goal/cop": [0, 0]},
                      text=BB_TREE)
@@ -280,12 +280,12 @@ root:
     assert json.loads((tmp_path / "out" / "report.json").read_text())["ticks"] > 0
 
 
-def test_run_mission_passes_params_and_blackboard_to_the_loader():
-    from tactile_bt.mission.run import _resolve
+def test_params_and_blackboard_apply_to_tree_files_only():
+    from tactile_bt import load_tree, run_mission
 
-    tree, _ = _resolve(str(ROOT / "examples" / "slide_and_record.yaml"), str(SCENE), None,
-                       params=["slide_10s.duration_s=4"], blackboard=["/goal/pressure=1900"])
+    tree = load_tree(str(ROOT / "examples" / "slide_and_record.yaml"), params=["slide_10s.duration_s=4"],
+                     blackboard=["/goal/pressure=1900"])
     assert node(tree, "slide_10s").duration_s == 4.0
     assert tree.blackboard_values == {"/goal/pressure": 1900.0}
     with pytest.raises(ValueError, match="tree file"):
-        _resolve(tree, str(SCENE), None, params=["a.b=1"])
+        run_mission(tree, str(SCENE), duration=0.01, params=["a.b=1"])

@@ -309,16 +309,16 @@ def test_missing_calibration_warns_in_one_line_and_in_the_report(tmp_path, capsy
     path = make_recording(tmp_path / "r.tbr")
     side = f"{path}.calibration.npz"
     rc, out, err = cli(["replay", path, "--tree", TREE], capsys)
-    assert rc == 0 and "Traceback" not in err
+    assert rc == 1 and "Traceback" not in err  # the frames hold no contact: like a mission, a failure
     warned = [line for line in err.splitlines() if line.startswith("warning:")]
     assert len(warned) == 1 and side in warned[0] and "nominal" in warned[0] and "--calibration FILE" in warned[0]
-    assert "completed after 40 frames" in out
+    assert "failure: no contact was made after 40 frames" in out
     with pytest.warns(RecordingWarning, match="nominal"):
         result = replay_mission(TREE, path)
     assert len(result.report["warnings"]) == 1 and side in result.report["warnings"][0]
     TactelCalibration.nominal().save(tmp_path / "cal.npz")
     rc, _out, err = cli(["replay", path, "--tree", TREE, "--calibration", tmp_path / "cal.npz"], capsys)
-    assert rc == 0 and "warning" not in err
+    assert rc == 1 and "warning" not in err
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert replay_mission(TREE, path, calibration=tmp_path / "cal.npz").report["warnings"] == []
@@ -333,10 +333,10 @@ def test_a_torn_tail_is_replayed_up_to_the_last_complete_chunk_with_a_warning(co
     TactelCalibration.nominal().save(f"{path}.calibration.npz")
     argv = ["replay", path, "--tree", TREE] if command == "replay" else ["sensor", "replay", path]
     rc, out, err = cli(argv, capsys)
-    assert rc == 0 and "Traceback" not in err
+    assert rc == (1 if command == "replay" else 0) and "Traceback" not in err  # replay: no contact was made
     expected = f"warning: {path}: the recording ends in a torn chunk at byte {last}; replaying the 32 complete frames"
     assert [line for line in err.splitlines() if line.startswith("warning:")] == [expected]
-    assert ("completed after 32 frames" if command == "replay" else "replayed 32 frames") in out
+    assert ("no contact was made after 32 frames" if command == "replay" else "replayed 32 frames") in out
     with pytest.warns(RecordingWarning, match=f"torn chunk at byte {last}"):
         report = replay_mission(TREE, path).report
     assert report["ticks"] == 32 and report["warnings"] == [expected.removeprefix("warning: ")]

@@ -12,8 +12,9 @@ from numpy.testing import assert_allclose
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.tree.behaviours import ContactCloud, CoverageStalled, RecordContacts, ScanDirection, StripeEnd
-from tactile_bt.tree.behaviours.record import imprint_points
+from tactile_bt.contacts.cloud import ContactCloud
+from tactile_bt.tree.behaviours import CoverageStalled, RecordContacts, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours.contact_points import imprint_points
 from tactile_bt.perception.features import extract
 from tactile_bt.sim.region import check_region
 from tactile_bt.mission.accuracy import (contact_continuity, reconstruction_metrics, region_mask,

@@ -87,7 +87,7 @@ def bench_features(repeats: int = 7, number: int = 200) -> dict:
 
 def bench_control_cycle(repeats: int = 7, number: int = 500) -> dict:
     from tactile_bt.tree.loader import load_tree
-    from tactile_bt.mission.run import ControlLoop
+    from tactile_bt.mission.loop import ControlLoop
 
     frames, calibration = _cable_frames()
     tree = load_tree(TREE)
@@ -127,7 +127,8 @@ def _cable_tree(ideal: bool):
 
 def bench_mission(duration: float = 20.0, ideal: bool = False) -> dict:
     """Closed-loop cable mission on the arm (or the ideal mount); where the time goes."""
-    from tactile_bt.mission.run import ControlLoop, run_mission
+    from tactile_bt.mission.loop import ControlLoop
+    from tactile_bt.mission.run import run_mission
     from tactile_bt.sim.scene import load_scene
     from tactile_bt.control.spatial import body_to_spatial
 

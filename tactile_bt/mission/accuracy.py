@@ -297,7 +297,7 @@ def evaluate_scan(scene, contact_data: np.ndarray, method: str = "auto", region:
     ----------
     scene : tactile_bt.sim.scene.Scene
     contact_data : (N, 8) array
-        The contact cloud (columns of :class:`~tactile_bt.tree.behaviours.record.ContactCloud`).
+        The contact cloud (columns of :class:`~tactile_bt.contacts.cloud.ContactCloud`).
     method : str
         Reconstruction method (:data:`tactile_bt.contacts.reconstruct.METHODS`).
     region : dict, optional

@@ -1,8 +1,10 @@
-"""Feed a recording back through perception and a tree: the same control loop as a mission, on
-recorded frames and poses instead of a simulator or a live sensor.
+"""Feed a recording back through perception and a tree: the same control loop and the same
+finish as a mission, on recorded frames and poses instead of a simulator or a live sensor.
 
 A recording made by ``run_mission(..., record=FILE)`` or ``tactile-bt sensor record`` replays
 deterministically: the same recording and tree give the same features and twists, at any speed.
+
+Layer: mission.
 """
 
 from __future__ import annotations
@@ -14,18 +16,18 @@ from pathlib import Path
 
 import numpy as np
 import py_trees
-from py_trees.common import Status
 
 from tactile_bt.errors import ReplayError
 from tactile_bt import defaults
 from tactile_bt.sense.calibration import TactelCalibration
+from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["replay_mission", "ReplayError"]
+__all__ = ["replay_mission"]
 
 
 def replay_mission(tree, recording: str | Path, calibration: TactelCalibration | str | Path | None = None,
                    speed: float | None = None, orientation_method: str = "moments", out: str | Path | None = None):
-    """Run ``tree`` on the frames of ``recording``; returns a :class:`~tactile_bt.mission.run.MissionResult`.
+    """Run ``tree`` on the frames of ``recording``; returns a :class:`~tactile_bt.mission.result.MissionResult`.
 
     Parameters
     ----------
@@ -48,8 +50,10 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     from tactile_bt.sense.hardware.recording import read_recording, torn_tail_message
     from tactile_bt.errors import RecordingError, RecordingWarning
     from tactile_bt.tree.loader import load_tree
-    from tactile_bt.mission.run import ControlLoop, MissionLog, MissionResult, _failure_reason, calibration_path
-    from tactile_bt.mission.metrics import controlled_feature_metrics
+    from tactile_bt.mission.log import MissionLog
+    from tactile_bt.mission.loop import ControlLoop, root_outcome
+    from tactile_bt.mission.result import finish_mission
+    from tactile_bt.mission.run import calibration_path
 
     if speed is not None and not (math.isfinite(speed) and speed > 0):
         raise ReplayError(f"speed must be a finite number > 0 or None, got {speed}")
@@ -90,7 +94,9 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         dt = 1.0 / float(rec.metadata["rate_hz"])
     else:
         dt = float(np.median(np.diff(t))) if n > 1 else 1.0 / defaults.RATE_HZ
-    loop = ControlLoop(tree, calibration, dt, orientation_method)
+    # The pad: its shape from the frames, its pitch from a mission recording (else the default).
+    pad = PadGeometry(rec.rows, rec.cols, float(rec.metadata.get("pitch_m", defaults.PITCH_M)))
+    loop = ControlLoop(tree, calibration, dt, orientation_method, pad=pad)
     log = MissionLog(n)
     status, reason, wall_start = "completed", "", time.perf_counter()
     try:
@@ -102,31 +108,15 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
             pose = rec.poses[k] if np.all(np.isfinite(rec.poses[k])) else np.eye(4)
             twist = loop.cycle(rec.values[k], pose, float(t[k]))
             log.record(k, float(t[k]), loop, twist, pose)
-            if tree.root.status in (Status.SUCCESS, Status.FAILURE):
-                status = tree.root.status.value.lower()
-                reason = _failure_reason(tree.root) if tree.root.status == Status.FAILURE else ""
+            outcome = root_outcome(tree.root)
+            if outcome is not None:
+                status, reason = outcome
                 break
     finally:
         tree.interrupt()
-    wall = time.perf_counter() - wall_start
-    arrays = log.arrays()
-    metrics = controlled_feature_metrics(arrays)
-    report = {
-        "tree": getattr(tree, "source", tree.root.name),
-        "recording": str(recording),
-        "scene": rec.metadata.get("scene", ""),
-        "seed": rec.metadata.get("seed"),
-        "status": status,
-        "reason": reason,
-        "warnings": notes,
-        "sim_time_s": float(t[log.n - 1]) + dt,
-        "wall_time_s": wall,
-        "real_time_factor": (float(t[log.n - 1]) + dt) / wall if wall > 0 else float("inf"),
-        "ticks": log.n,
-        "metrics": metrics,
-        "contacts": len(loop.contacts),
-    }
-    result = MissionResult(report=report, log=arrays, contact_data=loop.contacts.data.copy())
+    result = finish_mission(tree, log, loop.contacts, status, reason, wall_start, float(t[log.n - 1]) + dt,
+                            scene=rec.metadata.get("scene", ""), seed=rec.metadata.get("seed"),
+                            recording=str(recording), warnings=notes)
     if out is not None:
         result.save(out)
     return result

@@ -1,136 +1,32 @@
-"""The mission loop: one control cycle per tick, in the order of DESIGN.md.
+"""A mission: a tree run against a simulated scene, one control cycle per tick.
 
-sense → calibrate → extract → smooth → blackboard → tree tick → ServoController →
-Ad(T_gs) → mount/robot → log. Nothing else reaches across: the tree never talks to the robot.
+scene events → sense → (serial link) → :class:`~tactile_bt.mission.loop.ControlLoop`
+(calibrate → extract → smooth → blackboard → tree tick → twist) → ``Ad(T_gs)`` → mount → log,
+then :func:`~tactile_bt.mission.result.finish_mission`. Nothing else reaches across: the tree
+never talks to the robot.
+
+Layer: mission.
 """
 
 from __future__ import annotations
 
 import contextlib
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import py_trees
-from py_trees.common import Status
 
-from tactile_bt.errors import MissionLengthError
 from tactile_bt import defaults
-from tactile_bt.tree.behaviours import NAMESPACE, TactileBehaviour
-from tactile_bt.tree.behaviours.base import cycle_writer
-from tactile_bt.tree.behaviours.record import ContactCloud, RecordContacts
-from tactile_bt.control.servo import ServoCommand
-from tactile_bt.perception.features import extract
-from tactile_bt.perception.smoothing import FeatureSmoother
-from tactile_bt.mission.metrics import controlled_feature_metrics, path_error
 from tactile_bt.control.spatial import body_to_spatial
+from tactile_bt.errors import MissionLengthError
+from tactile_bt.mission.log import MissionLog
+from tactile_bt.mission.loop import ControlLoop, root_outcome
+from tactile_bt.mission.result import MissionResult, finish_mission
+from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
-__all__ = ["run_mission", "ControlLoop", "MissionResult", "MissionLog", "calibration_path"]
-
-_ERRORS = tuple(defaults.METRIC_BANDS)  # the logged error of every controllable feature
-
-
-class MissionLog:
-    """Preallocated per-cycle time series; :meth:`arrays` gives the rows written so far."""
-
-    SCALARS = (
-        "t",
-        "in_contact",
-        "force_n",
-        "area",
-        "pressure_raw_pa",
-        "pressure_pa",
-        "cop_x_px",
-        "cop_y_px",
-        "orientation_raw_rad",
-        "orientation_rad",
-        "penetration_m",
-        *(f"error_{e}" for e in _ERRORS),
-    )
-
-    def __init__(self, n: int) -> None:
-        self.n = 0
-        self.scalars = {k: np.full(n, np.nan) for k in self.SCALARS}
-        self.twist = np.zeros((n, 6))
-        self.position = np.zeros((n, 3))
-        self.rotation = np.zeros((n, 3, 3))
-        self.joints: np.ndarray | None = None  # (n, 7) rad, when the pad is on the arm
-
-    def record(self, k: int, t: float, loop: "ControlLoop", twist_s: np.ndarray, pose: np.ndarray,
-               penetration: float = float("nan")) -> None:
-        """Store cycle ``k`` (mission time ``t``) of a control loop."""
-        f_raw, f = loop.features_raw, loop.features
-        s = self.scalars
-        s["t"][k] = t
-        s["in_contact"][k] = f_raw.in_contact
-        s["force_n"][k] = f_raw.force
-        s["area"][k] = f_raw.area
-        s["pressure_raw_pa"][k] = f_raw.pressure
-        s["pressure_pa"][k] = f.pressure
-        s["cop_x_px"][k], s["cop_y_px"][k] = f_raw.cop_px.tolist()
-        s["orientation_raw_rad"][k] = f_raw.orientation
-        s["orientation_rad"][k] = f.orientation
-        s["penetration_m"][k] = penetration
-        for name, value in loop.command.errors.items():
-            s["error_" + name][k] = value
-        self.twist[k] = twist_s
-        self.position[k] = pose[:3, 3]
-        self.rotation[k] = pose[:3, :3]
-        self.n = k + 1
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        n = self.n
-        out = {k: v[:n].copy() for k, v in self.scalars.items()}
-        out["twist_s"] = self.twist[:n].copy()
-        out["position_m"] = self.position[:n].copy()
-        out["rotation"] = self.rotation[:n].copy()
-        if self.joints is not None:
-            out["joints_rad"] = self.joints[:n].copy()
-        return out
-
-
-@dataclass
-class MissionResult:
-    """What a mission leaves: the report, every logged series and the recorded contacts.
-
-    Attributes
-    ----------
-    report : dict
-        Same content as ``report.json``.
-    log : dict of numpy arrays
-        Time series keyed by name, all with the ``t`` array's length.
-    contacts : (N, 6) array
-        World points (m) and outward surface normals recorded by ``record_contacts``.
-    contact_data : (N, 8) array
-        The same with pressure (Pa) and mission time (s).
-    surface : trimesh.Trimesh or None
-        The surface reconstructed from the contacts (world frame, m), when the tree or the run
-        asked for one (``record_contacts: {reconstruct: ...}`` or ``run_mission(reconstruct=...)``).
-    """
-
-    report: dict
-    log: dict
-    contact_data: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
-    surface: object = None
-
-    @property
-    def contacts(self) -> np.ndarray:
-        return self.contact_data[:, :6]
-
-    def plot(self, path: str | Path | None = None):
-        """Feature errors against mission time (paper Figs. 8–10, 12b); saved when ``path``."""
-        from tactile_bt.mission.outputs import plot_errors
-
-        return plot_errors(self, path)
-
-    def save(self, out: str | Path) -> None:
-        """Write report.json, log.npz, errors.png and contacts.ply into ``out``; for a scan
-        also surface.ply and render.png."""
-        from tactile_bt.mission.outputs import write_outputs
-
-        write_outputs(self, Path(out))
+__all__ = ["run_mission", "calibration_path", "MAX_CYCLES"]
 
 
 def calibration_path(recording: str | Path) -> Path:
@@ -149,91 +45,6 @@ def _resolve(tree, scene, overrides, params=None, blackboard=None):
     if not isinstance(scene, Scene):
         scene = load_scene(scene, list(overrides or ()))
     return tree, scene
-
-
-def _failure_reason(root: py_trees.behaviour.Behaviour) -> str:
-    """Name and message of the deepest failed node that says why (a leaf, or a decorator such
-    as a timed-out mission_timeout whose child was merely stopped)."""
-    failed = [b for b in root.iterate() if b.status == Status.FAILURE and b.feedback_message]
-    if failed:
-        node = failed[0]  # iterate() yields children before their parents
-        return f"{node.name}: {node.feedback_message}"
-    return root.feedback_message
-
-
-class ControlLoop:
-    """One control cycle of DESIGN.md, without the robot: raw frame → sensor-frame twist.
-
-    calibrate → extract → smooth → blackboard → tree tick → summed twist. Used by the
-    simulated mission, by the hardware loop and by the benchmark, so all three time the same
-    code.
-
-    Parameters
-    ----------
-    tree : py_trees.trees.BehaviourTree
-    calibration : TactelCalibration
-        Raw counts → newtons per tactel.
-    dt : float
-        Control period (s).
-    orientation_method : "moments" or "hough"
-    threshold : float
-        Binarisation threshold (N per tactel).
-    profile : bool
-        Accumulate the time spent per stage in :attr:`stage_times`.
-    """
-
-    def __init__(self, tree, calibration, dt: float, orientation_method: str = "moments",
-                 threshold: float = defaults.CONTACT_THRESHOLD_N, profile: bool = False) -> None:
-        self.tree = tree
-        self.calibration = calibration
-        self.dt = float(dt)
-        self.orientation_method = orientation_method
-        self.threshold = float(threshold)
-        self.command = ServoCommand(defaults.TWIST_LINEAR_LIMIT_MPS, defaults.TWIST_ANGULAR_LIMIT_RPS)
-        self.contacts = ContactCloud()
-        self.smoother = FeatureSmoother(defaults.SMOOTHING_SAMPLES)
-        self.writer = cycle_writer("mission", self.command, self.contacts, self.dt)
-        tree.setup()
-        leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
-        self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]
-        self.features_raw = None
-        self.features = None
-        #: With ``profile=True``: accumulated seconds in perception (calibrate, extract,
-        #: smooth) and in the tree tick plus controller, over ``stage_cycles`` cycles.
-        self.stage_times = [0.0, 0.0] if profile else None
-        self.stage_cycles = 0
-        self._storage = py_trees.blackboard.Blackboard.storage
-        self._keys = tuple(f"{NAMESPACE}/{k}" for k in ("time", "pose", "features_raw", "features"))
-
-    def cycle(self, raw: np.ndarray, pose: np.ndarray, t: float) -> np.ndarray:
-        """Run one cycle on a raw frame taken at mission time ``t`` (s) with the pad at ``pose``
-        (``T_gs``); returns the sensor-frame twist ``V_s`` to apply."""
-        clock = time.perf_counter if self.stage_times is not None else None
-        if clock:
-            t0 = clock()
-        image = self.calibration.force_from_raw(raw)
-        # Orientation only when a running leaf uses it (a leaf starting this tick sees NaN once).
-        needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
-        f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None)
-        f = self.smoother(f_raw)
-        if clock:
-            t1 = clock()
-        # Straight into the blackboard's storage: the keys are registered by ``writer`` above;
-        # the client's access bookkeeping would cost more than the control law (DESIGN budget).
-        storage = self._storage
-        storage[self._keys[0]] = t
-        storage[self._keys[1]] = pose
-        storage[self._keys[2]] = f_raw
-        storage[self._keys[3]] = f
-        self.features_raw, self.features = f_raw, f
-        self.command.clear()
-        self.tree.tick()
-        twist = self.command.twist()
-        if clock:
-            self.stage_times[0] += t1 - t0
-            self.stage_times[1] += clock() - t1
-            self.stage_cycles += 1
-        return twist
 
 
 def run_mission(
@@ -309,7 +120,7 @@ def run_mission(
 
         prepare_output_dir(out)
 
-    loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold)
+    loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=scene.sensor.geometry)
     contacts = loop.contacts
 
     log = MissionLog(n_cycles)
@@ -330,7 +141,8 @@ def run_mission(
 
         world.calibration.save(calibration_path(record))
         recorder = stack.enter_context(Recorder(record, scene.sensor.rows, scene.sensor.cols,
-                                                metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz}))
+                                                metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
+                                                          "pitch_m": scene.sensor.pitch}))
     wall_start = time.perf_counter()
     try:
         for k in range(n_cycles):
@@ -350,27 +162,25 @@ def run_mission(
                 log.joints[k] = joints()
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
-            root_status = tree.root.status
-            if root_status == Status.SUCCESS:
-                status = "success"
-                break
-            if root_status == Status.FAILURE:
-                status = "failure"
-                reason = _failure_reason(tree.root)
+            outcome = root_outcome(tree.root)
+            if outcome is not None:
+                status, reason = outcome
                 break
     except BaseException as exc:
         if isinstance(exc, KeyboardInterrupt):
             status, reason = "interrupted", f"interrupted at {log.n * dt:.2f} s of mission time"
         else:
             status, reason = "error", f"{type(exc).__name__}: {exc}"
-        result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan)
+        result = finish_mission(tree, log, contacts, status, reason, wall_start, log.n * dt, scene=scene,
+                                seed=seed, scan=scan)
         if out is not None:
             result.save(out)
         raise
     finally:
         tree.interrupt()
         stack.close()
-    result = _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan)
+    result = finish_mission(tree, log, contacts, status, reason, wall_start, log.n * dt, scene=scene, seed=seed,
+                            scan=scan)
     if out is not None:
         result.save(out)
     return result
@@ -402,48 +212,3 @@ def _scan_settings(tree, scene, reconstruct, scan_region) -> dict | None:
     return scan_settings(method, scene, scan_region)
 
 
-def _finish(tree, scene, seed, log, contacts, status, reason, wall_start, dt, scan=None) -> MissionResult:
-    wall = time.perf_counter() - wall_start
-    arrays = log.arrays()
-    sim_time = log.n * dt
-    metrics = controlled_feature_metrics(arrays)
-    if status == "completed" and not np.any(arrays["in_contact"] == 1):
-        status, reason = "failure", "no contact was made"
-    report = {
-        "tree": getattr(tree, "source", getattr(tree.root, "name", "tree")),
-        # absolute, so that `tactile-bt view DIR` finds the scene from any directory
-        "scene": str(Path(scene.file).resolve()) if scene.file else "",
-        "seed": seed,
-        "status": status,
-        "reason": reason,
-        "rate_hz": scene.rate_hz,
-        "sim_time_s": sim_time,
-        "wall_time_s": wall,
-        "real_time_factor": sim_time / wall if wall > 0 else float("inf"),
-        "ticks": log.n,
-        "metrics": metrics,
-        "contacts": len(contacts),
-    }
-    cable = scene.cable
-    if cable is not None:
-        report["path_error_m"] = path_error(contacts.points[:, :2], cable)
-        # The same for the plain centre of pressure of every cycle in contact, for comparison.
-        touching = (arrays["in_contact"] == 1) & np.isfinite(arrays["cop_x_px"])
-        if touching.any():
-            c = (np.stack((arrays["cop_x_px"], arrays["cop_y_px"]), axis=1)[touching]
-                 - (defaults.COLS - 1) / 2) * defaults.PITCH_M
-            R = arrays["rotation"][touching]
-            world = np.einsum("nij,nj->ni", R[:, :, :2], c) + arrays["position_m"][touching]
-            cop_error = path_error(world[:, :2], cable)
-            report["path_error_cop_m"] = {"mean": cop_error["mean"], "max": cop_error["max"]}
-    surface = None
-    if scan is not None and len(contacts):
-        from tactile_bt.mission.accuracy import contact_continuity, evaluate_scan
-
-        try:
-            surface, figures = evaluate_scan(scene, contacts.data, scan["method"], scan["region"])
-        except Exception as exc:  # a failed reconstruction must not lose the mission's outputs
-            figures = {"method": scan["method"], "error": f"{type(exc).__name__}: {exc}"}
-        figures.update(contact_continuity(arrays["t"], arrays["in_contact"]))
-        report["reconstruction"] = figures
-    return MissionResult(report=report, log=arrays, contact_data=contacts.data.copy(), surface=surface)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile_bt import defaults
+from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.control.spatial import skew
 
@@ -76,6 +77,11 @@ class SensorParams:
     noise_counts: float = 5.0
     noise_relative: float = 0.1
     noise_common: float = 0.03
+
+    @property
+    def geometry(self) -> PadGeometry:
+        """The pad's :class:`~tactile_bt.sense.geometry.PadGeometry` (rows, cols, pitch)."""
+        return PadGeometry(self.rows, self.cols, self.pitch)
 
 
 @dataclass

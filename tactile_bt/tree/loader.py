@@ -58,7 +58,8 @@ import yaml
 from py_trees.common import Access
 
 from tactile_bt.errors import ParameterTypeError, ParameterValueError, TreeError
-from tactile_bt.tree.behaviours import DECORATORS, LEAVES, NAMESPACE
+from tactile_bt.tree.behaviours import DECORATORS, LEAVES
+from tactile_bt.tree.blackboard import NAMESPACE
 from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
 from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
                                         normalise_key, parameters_of)

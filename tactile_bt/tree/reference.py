@@ -121,7 +121,10 @@ def update_reference(path: str | Path) -> bool:
 
 
 if __name__ == "__main__":  # python -m tactile_bt.tree.reference docs/trees.md
-    import sys
+    import argparse
 
-    for target in sys.argv[1:] or ["docs/trees.md"]:
+    parser = argparse.ArgumentParser(prog="python -m tactile_bt.tree.reference",
+                                     description="Regenerate the node reference of Markdown files.")
+    parser.add_argument("files", nargs="*", default=["docs/trees.md"], help="default: docs/trees.md")
+    for target in parser.parse_args().files:
         print(f"{target}: {'updated' if update_reference(target) else 'up to date'}")

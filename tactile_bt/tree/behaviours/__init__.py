@@ -5,13 +5,13 @@ Every class takes typed keyword parameters with defaults, units in their names (
 Python and one loaded from YAML are the same objects.
 """
 
-from tactile_bt.tree.behaviours.base import NAMESPACE, ServoLeaf, TactileBehaviour
+from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour
 from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
 from tactile_bt.tree.parameters import bind_blackboard
 from tactile_bt.errors import BlackboardReferenceError
-from tactile_bt.tree.behaviours.record import ContactCloud, RecordContacts
+from tactile_bt.tree.behaviours.contact_points import RecordContacts
 from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 
@@ -41,7 +41,6 @@ DECORATORS = {
 }
 
 __all__ = [
-    "NAMESPACE",
     "TactileBehaviour",
     "ServoLeaf",
     "Approach",
@@ -52,7 +51,6 @@ __all__ = [
     "TactileServo",
     "GuidedSlide",
     "RecordContacts",
-    "ContactCloud",
     "ScanDirection",
     "StripeEnd",
     "CoverageStalled",

@@ -1,18 +1,9 @@
-"""Shared machinery of the tactile leaves: blackboard keys, the mission clock and the servo base.
+"""Shared machinery of the tactile leaves: the leaf base with its cycle data, and the servo base.
 
-Every leaf reads the cycle's data from the blackboard namespace ``/tactile``:
+Every leaf reads the cycle's data from the blackboard namespace ``/tactile``
+(:mod:`tactile_bt.tree.blackboard` lists the keys).
 
-=================  ==================================================================
-key                content
-=================  ==================================================================
-``features``       smoothed :class:`~tactile_bt.perception.features.ContactFeatures` (paper Sec. V)
-``features_raw``   the same before smoothing
-``time``           mission clock in s (never wall time)
-``dt``             control period in s
-``command``        the cycle's :class:`~tactile_bt.control.servo.ServoCommand`
-``pose``           ``T_gs``, 4x4 pose of the sensor frame in the base frame
-``contacts``       the mission's :class:`~tactile_bt.tree.behaviours.record.ContactCloud`
-=================  ==================================================================
+Layer: tree.
 """
 
 from __future__ import annotations
@@ -26,14 +17,11 @@ from py_trees.common import Access, Status
 from tactile_bt import defaults
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, read
 
-__all__ = ["NAMESPACE", "KEYS", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "cycle_writer"]
+__all__ = ["TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT"]
 
-NAMESPACE = "/tactile"
-KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts")
-_STORAGE = py_trees.blackboard.Blackboard.storage
 _ZERO_TWIST = (0.0,) * 6
-_FEATURES, _FEATURES_RAW, _TIME, _POSE = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose"))
 
 #: Name and scale of the logged error of each feature component (metric units: Pa, px, rad).
 METRIC_OF_COMPONENT = {
@@ -42,24 +30,6 @@ METRIC_OF_COMPONENT = {
     2: ("pressure_pa", 1.0),
     3: ("orientation_rad", 1.0),
 }
-
-
-def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | None = None):
-    """A blackboard client that owns the ``/tactile`` keys, with the mission's constant objects
-    (cycle command, contact cloud, control period in s) and an initial pose written.
-
-    The mission loop and :class:`tactile_bt.testing.LeafHarness` both start from it.
-    """
-    writer = py_trees.blackboard.Client(name=name, namespace=NAMESPACE)
-    for key in KEYS:
-        writer.register_key(key=key, access=Access.WRITE)
-    writer.command = command
-    writer.contacts = contacts
-    writer.dt = float(dt)
-    writer.time = 0.0
-    writer.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
-    writer.features = writer.features_raw = None
-    return writer
 
 
 class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
@@ -87,27 +57,26 @@ class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
             self.bb.register_key(key=key, access=access)
 
     # Hot-path reads. The keys are registered with the client above (so py_trees shows who
-    # reads what); the per-cycle values are read straight from the blackboard's storage, which
-    # skips the client's access bookkeeping (several µs per read, every 4 ms cycle).
+    # reads what); the per-cycle values come through the blackboard adapter's fast path.
     @property
     def features(self):
         """Smoothed :class:`~tactile_bt.perception.features.ContactFeatures` of this cycle."""
-        return _STORAGE[_FEATURES]
+        return read(FEATURES)
 
     @property
     def features_raw(self):
         """Unsmoothed features of this cycle."""
-        return _STORAGE[_FEATURES_RAW]
+        return read(FEATURES_RAW)
 
     @property
     def now(self) -> float:
         """Mission time in s."""
-        return _STORAGE[_TIME]
+        return read(TIME)
 
     @property
     def pose(self) -> np.ndarray:
         """``T_gs`` of this cycle."""
-        return _STORAGE[_POSE]
+        return read(POSE)
 
     def set_parameter(self, name: str, value) -> None:
         """Change parameter ``name`` (already checked against its type) between runs.
@@ -274,7 +243,7 @@ class ServoLeaf(TactileBehaviour):
         self._last_twist = _ZERO_TWIST
 
     def update(self) -> Status:
-        f = _STORAGE[_FEATURES]
+        f = read(FEATURES)
         cop, pressure, alpha = self.targets()
         full = feature_error(f, cop, pressure, alpha)
         error = [full[c] for c in self.components]

@@ -9,13 +9,12 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Access, Status
 
-from tactile_bt.tree.behaviours.base import NAMESPACE, TactileBehaviour
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.blackboard import NAMESPACE, TIME, read
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
 
 __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 
-_STORAGE = py_trees.blackboard.Blackboard.storage
-_TIME = f"{NAMESPACE}/time"
 
 
 class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
@@ -73,14 +72,14 @@ class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
         self._feedback = message
 
     def initialise(self) -> None:
-        self._start = float(_STORAGE[_TIME])
+        self._start = float(read(TIME))
         self._elapsed = 0.0
 
     def update(self) -> Status:
         status = self.decorated.status
         if status == Status.SUCCESS or status == Status.FAILURE:
             return status
-        elapsed = self._elapsed = _STORAGE[_TIME] - self._start
+        elapsed = self._elapsed = read(TIME) - self._start
         if elapsed >= self.duration_s:
             self.feedback_message = f"timed out after {self.duration_s:g} s of mission time"
             if status == Status.RUNNING:

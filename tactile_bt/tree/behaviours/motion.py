@@ -6,15 +6,14 @@ import math
 from typing import Sequence
 
 import numpy as np
-import py_trees
 from py_trees.common import Access, Status
 
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.blackboard import read
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
 from tactile_bt.errors import BlackboardReferenceError
 
-_STORAGE = py_trees.blackboard.Blackboard.storage
 
 __all__ = ["Approach", "GuidedSlide"]
 
@@ -171,7 +170,7 @@ class GuidedSlide(TactileBehaviour):
     def current_twist(self) -> np.ndarray:
         """The twist the leaf adds this cycle (m/s, rad/s, sensor frame)."""
         if self.twist_key:
-            return np.asarray(_STORAGE[self._key], dtype=float)
+            return np.asarray(read(self._key), dtype=float)
         return self.twist
 
     # The message of a sliding leaf is formatted only when somebody reads it.
@@ -197,7 +196,7 @@ class GuidedSlide(TactileBehaviour):
             return Status.RUNNING
         if self.twist_key:
             # Straight from the storage (the key is registered above): no per-tick bookkeeping.
-            value = _STORAGE[self._key]
+            value = read(self._key)
             twist = value.tolist() if isinstance(value, np.ndarray) else list(value)
             if len(twist) != 6:
                 raise ValueError(f"{self.name}: blackboard key {self._key!r} must hold 6 numbers, got {value!r}")

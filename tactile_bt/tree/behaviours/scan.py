@@ -17,15 +17,14 @@ import math
 from typing import Literal, Sequence
 
 import numpy as np
-import py_trees
 from py_trees.common import Access, Status
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.blackboard import write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["ScanDirection", "StripeEnd", "CoverageStalled"]
 
-_STORAGE = py_trees.blackboard.Blackboard.storage
 #: A stripe that starts beyond the tilt limit ends once it has tilted this much (rad) beyond the
 #: least tilt it had.
 _TILT_MARGIN_RAD = math.radians(5.0)
@@ -89,11 +88,11 @@ class ScanDirection(TactileBehaviour):
         return twist
 
     def initialise(self) -> None:
-        _STORAGE[self.key] = self.guidance(self.pose)
+        write(self.key, self.guidance(self.pose))
 
     def update(self) -> Status:
         self.twist = self.guidance(self.pose)
-        _STORAGE[self.key] = self.twist
+        write(self.key, self.twist)
         return Status.RUNNING
 
 

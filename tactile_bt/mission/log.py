@@ -1,0 +1,73 @@
+"""The time series of a mission, preallocated and filled one control cycle at a time.
+
+Layer: mission.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tactile_bt import defaults
+
+__all__ = ["MissionLog"]
+
+_ERRORS = tuple(defaults.METRIC_BANDS)  # the logged error of every controllable feature
+
+
+class MissionLog:
+    """Preallocated per-cycle time series; :meth:`arrays` gives the rows written so far."""
+
+    SCALARS = (
+        "t",
+        "in_contact",
+        "force_n",
+        "area",
+        "pressure_raw_pa",
+        "pressure_pa",
+        "cop_x_px",
+        "cop_y_px",
+        "orientation_raw_rad",
+        "orientation_rad",
+        "penetration_m",
+        *(f"error_{e}" for e in _ERRORS),
+    )
+
+    def __init__(self, n: int) -> None:
+        self.n = 0
+        self.scalars = {k: np.full(n, np.nan) for k in self.SCALARS}
+        self.twist = np.zeros((n, 6))
+        self.position = np.zeros((n, 3))
+        self.rotation = np.zeros((n, 3, 3))
+        self.joints: np.ndarray | None = None  # (n, 7) rad, when the pad is on the arm
+
+    def record(self, k: int, t: float, loop, twist_s: np.ndarray, pose: np.ndarray,
+               penetration: float = float("nan")) -> None:
+        """Store cycle ``k`` (mission time ``t``) of a control loop."""
+        f_raw, f = loop.features_raw, loop.features
+        s = self.scalars
+        s["t"][k] = t
+        s["in_contact"][k] = f_raw.in_contact
+        s["force_n"][k] = f_raw.force
+        s["area"][k] = f_raw.area
+        s["pressure_raw_pa"][k] = f_raw.pressure
+        s["pressure_pa"][k] = f.pressure
+        s["cop_x_px"][k], s["cop_y_px"][k] = f_raw.cop_px.tolist()
+        s["orientation_raw_rad"][k] = f_raw.orientation
+        s["orientation_rad"][k] = f.orientation
+        s["penetration_m"][k] = penetration
+        for name, value in loop.command.errors.items():
+            s["error_" + name][k] = value
+        self.twist[k] = twist_s
+        self.position[k] = pose[:3, 3]
+        self.rotation[k] = pose[:3, :3]
+        self.n = k + 1
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        n = self.n
+        out = {k: v[:n].copy() for k, v in self.scalars.items()}
+        out["twist_s"] = self.twist[:n].copy()
+        out["position_m"] = self.position[:n].copy()
+        out["rotation"] = self.rotation[:n].copy()
+        if self.joints is not None:
+            out["joints_rad"] = self.joints[:n].copy()
+        return out

@@ -1,0 +1,118 @@
+"""One control cycle without the robot, shared by missions, replays and the bench.
+
+sense → calibrate → extract → smooth → blackboard → tree tick → summed sensor-frame twist
+(DESIGN.md); the caller applies the twist through ``Ad(T_gs)`` to its mount, or to nothing.
+
+Layer: mission.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import py_trees
+from py_trees.common import Status
+
+from tactile_bt import defaults
+from tactile_bt.contacts.cloud import ContactCloud
+from tactile_bt.control.servo import ServoCommand
+from tactile_bt.perception.features import extract
+from tactile_bt.perception.smoothing import FeatureSmoother
+from tactile_bt.sense.geometry import PadGeometry
+from tactile_bt.tree.behaviours import TactileBehaviour
+from tactile_bt.tree.blackboard import cycle_writer, write_cycle
+
+__all__ = ["ControlLoop", "root_outcome", "failure_reason"]
+
+
+class ControlLoop:
+    """One control cycle of DESIGN.md, without the robot: raw frame → sensor-frame twist.
+
+    calibrate → extract → smooth → blackboard → tree tick → summed twist. Used by the
+    simulated mission, by the hardware loop and by the benchmark, so all three time the same
+    code.
+
+    Parameters
+    ----------
+    tree : py_trees.trees.BehaviourTree
+    calibration : TactelCalibration
+        Raw counts → newtons per tactel.
+    dt : float
+        Control period (s).
+    orientation_method : "moments" or "hough"
+    threshold : float
+        Binarisation threshold (N per tactel).
+    profile : bool
+        Accumulate the time spent per stage in :attr:`stage_times`.
+    pad : PadGeometry, optional
+        The pad the frames come from (default: the paper's 16×16 pad with 5 mm pitch).
+    """
+
+    def __init__(self, tree, calibration, dt: float, orientation_method: str = "moments",
+                 threshold: float = defaults.CONTACT_THRESHOLD_N, profile: bool = False,
+                 pad: PadGeometry | None = None) -> None:
+        self.tree = tree
+        self.pad = PadGeometry() if pad is None else pad
+        self.calibration = calibration
+        self.dt = float(dt)
+        self.orientation_method = orientation_method
+        self.threshold = float(threshold)
+        self.command = ServoCommand(defaults.TWIST_LINEAR_LIMIT_MPS, defaults.TWIST_ANGULAR_LIMIT_RPS)
+        self.contacts = ContactCloud()
+        self.smoother = FeatureSmoother(defaults.SMOOTHING_SAMPLES)
+        self.writer = cycle_writer("mission", self.command, self.contacts, self.dt, pad=self.pad)
+        tree.setup()
+        leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
+        self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]
+        self.features_raw = None
+        self.features = None
+        #: With ``profile=True``: accumulated seconds in perception (calibrate, extract,
+        #: smooth) and in the tree tick plus controller, over ``stage_cycles`` cycles.
+        self.stage_times = [0.0, 0.0] if profile else None
+        self.stage_cycles = 0
+
+    def cycle(self, raw: np.ndarray, pose: np.ndarray, t: float) -> np.ndarray:
+        """Run one cycle on a raw frame taken at mission time ``t`` (s) with the pad at ``pose``
+        (``T_gs``); returns the sensor-frame twist ``V_s`` to apply."""
+        clock = time.perf_counter if self.stage_times is not None else None
+        if clock:
+            t0 = clock()
+        image = self.calibration.force_from_raw(raw)
+        # Orientation only when a running leaf uses it (a leaf starting this tick sees NaN once).
+        needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
+        f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None,
+                        pitch=self.pad.pitch)
+        f = self.smoother(f_raw)
+        if clock:
+            t1 = clock()
+        write_cycle(t, pose, f_raw, f)  # the keys ``writer`` registered, through the adapter's fast path
+        self.features_raw, self.features = f_raw, f
+        self.command.clear()
+        self.tree.tick()
+        twist = self.command.twist()
+        if clock:
+            self.stage_times[0] += t1 - t0
+            self.stage_times[1] += clock() - t1
+            self.stage_cycles += 1
+        return twist
+
+
+def failure_reason(root: py_trees.behaviour.Behaviour) -> str:
+    """Name and message of the deepest failed node that says why (a leaf, or a decorator such
+    as a timed-out mission_timeout whose child was merely stopped)."""
+    failed = [b for b in root.iterate() if b.status == Status.FAILURE and b.feedback_message]
+    if failed:
+        node = failed[0]  # iterate() yields children before their parents
+        return f"{node.name}: {node.feedback_message}"
+    return root.feedback_message
+
+
+def root_outcome(root: py_trees.behaviour.Behaviour) -> tuple[str, str] | None:
+    """``(status, reason)`` once the tree's root has ended (``success`` or ``failure`` with the
+    reason of :func:`failure_reason`), else None: the one stop rule of missions and replays."""
+    if root.status == Status.SUCCESS:
+        return "success", ""
+    if root.status == Status.FAILURE:
+        return "failure", failure_reason(root)
+    return None

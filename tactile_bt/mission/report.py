@@ -1,0 +1,166 @@
+"""The typed mission report: what ``report.json`` holds, for missions and replays alike.
+
+:class:`MissionReport` is the one description of a run's outcome: the command line prints it, the
+output writer saves it (:meth:`MissionReport.to_dict` gives the JSON), the view and the studies
+read it back (:meth:`MissionReport.load`). ``MissionResult.report`` is its dict, as DESIGN.md
+promises users.
+
+Layer: mission.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FeatureMetrics", "MissionReport", "OK_STATUSES"]
+
+#: Statuses of a run that did what it was asked (the CLI's exit code 0).
+OK_STATUSES = ("success", "completed")
+
+
+def _number(value: Any) -> float:
+    """JSON stores NaN and inf as null: read null back as NaN."""
+    return float("nan") if value is None else float(value)
+
+
+@dataclass
+class FeatureMetrics:
+    """The paper's Table I–III columns for one controlled feature (units of the feature:
+    Pa, px or rad; times in s)."""
+
+    steady_state_error: float
+    std: float
+    response_time_s: float
+    band: float
+    start_s: float
+    window_s: float
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FeatureMetrics":
+        return cls(**{f.name: _number(d.get(f.name)) for f in fields(cls)})
+
+    def to_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass
+class MissionReport:
+    """Outcome of one mission or replay.
+
+    Attributes
+    ----------
+    tree, scene : str
+        The tree file (or root name) and the scene file (absolute path; empty for a replay of a
+        live recording).
+    seed : int or None
+    status : str
+        ``success`` or ``failure`` (the tree's root ended), ``completed`` (the budget ran out),
+        ``interrupted`` (Ctrl-C) or ``error``.
+    reason : str
+        Why a run failed, e.g. ``"follow: contact lost"`` or ``"no contact was made"``.
+    sim_time_s, wall_time_s, real_time_factor : float
+        Mission time (s), wall-clock time (s) and their ratio.
+    ticks : int
+        Control cycles run.
+    metrics : dict of FeatureMetrics
+        One entry per controlled feature (``pressure_pa``, ``cop_x_px``, ``cop_y_px``,
+        ``orientation_rad``).
+    contacts : int
+        Samples in the contact cloud.
+    warnings : list of str
+        What the user should know about the run (a torn recording, a saturated joint, ...).
+    rate_hz : float, optional
+        Control rate of a simulated mission.
+    recording : str, optional
+        The recording a replay ran on.
+    path_error_m, path_error_cop_m : dict, optional
+        Distance of the recorded contacts (and of the plain centres of pressure) from a cable's
+        true centreline (m): ``mean``, ``max``, ...
+    reconstruction : dict, optional
+        Reconstruction and accuracy figures of a scan (:mod:`tactile_bt.mission.accuracy`).
+    """
+
+    tree: str
+    scene: str
+    seed: int | None
+    status: str
+    reason: str
+    sim_time_s: float
+    wall_time_s: float
+    real_time_factor: float
+    ticks: int
+    metrics: dict[str, FeatureMetrics]
+    contacts: int
+    warnings: list[str] = field(default_factory=list)
+    rate_hz: float | None = None
+    recording: str | None = None
+    path_error_m: dict | None = None
+    path_error_cop_m: dict | None = None
+    reconstruction: dict | None = None
+
+    #: Key order of report.json.
+    ORDER = ("tree", "recording", "scene", "seed", "status", "reason", "warnings", "rate_hz", "sim_time_s",
+             "wall_time_s", "real_time_factor", "ticks", "metrics", "contacts", "path_error_m",
+             "path_error_cop_m", "reconstruction")
+
+    @property
+    def ok(self) -> bool:
+        """Whether the run did what it was asked (``success`` or ``completed``)."""
+        return self.status in OK_STATUSES
+
+    def to_dict(self) -> dict:
+        """The content of report.json (optional entries only when present)."""
+        out = {}
+        for name in self.ORDER:
+            value = getattr(self, name)
+            if value is None and name in ("rate_hz", "recording", "path_error_m", "path_error_cop_m",
+                                          "reconstruction"):
+                continue
+            if name == "metrics":
+                value = {k: m.to_dict() for k, m in value.items()}
+            elif name == "warnings":
+                value = list(value)
+            out[name] = value
+        return out
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "MissionReport":
+        """The report of a report.json's content (nulls of NaN figures read back as NaN)."""
+        known = {f.name for f in fields(cls)}
+        kwargs = {k: v for k, v in d.items() if k in known}
+        kwargs["metrics"] = {k: FeatureMetrics.from_dict(m) for k, m in d.get("metrics", {}).items()}
+        for name in ("sim_time_s", "wall_time_s", "real_time_factor"):
+            kwargs[name] = _number(d.get(name))
+        kwargs.setdefault("warnings", [])
+        return cls(**kwargs)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "MissionReport":
+        """Read ``report.json`` (or the one in the output directory ``path``)."""
+        path = Path(path)
+        if path.is_dir():
+            path = path / "report.json"
+        if not path.exists():
+            raise FileNotFoundError(f"{path} not found: is {path.parent} the output of 'tactile-bt run'?")
+        return cls.from_dict(json.loads(path.read_text()))
+
+    def summary_lines(self) -> list[str]:
+        """The lines the command line prints after a run."""
+        lines = []
+        for name, m in self.metrics.items():
+            lines.append(f"  {name:16s} steady-state {m.steady_state_error:+.4g}  std {m.std:.4g}  "
+                         f"response {m.response_time_s:.2f} s")
+        if self.path_error_m and math.isfinite(self.path_error_m.get("mean", float("nan"))):
+            p = self.path_error_m
+            lines.append(f"  path error       mean {p['mean'] * 1e3:.2f} mm  max {p['max'] * 1e3:.2f} mm  "
+                         f"followed {p['followed_m'] * 1e3:.0f} of {p['cable_length_m'] * 1e3:.0f} mm")
+        rec = self.reconstruction
+        if rec and rec.get("chamfer_m") is not None and math.isfinite(rec["chamfer_m"]):
+            lines.append(f"  reconstruction   {rec['method']}, {rec['points']} contacts: chamfer "
+                         f"{rec['chamfer_m'] * 1e3:.2f} mm, Hausdorff {rec['hausdorff_m'] * 1e3:.2f} mm, "
+                         f"coverage {rec['coverage']:.3f} of {rec['region']}")
+        return lines

@@ -1,0 +1,76 @@
+"""The blackboard adapter: the ``/tactile`` keys of one control cycle, and the one place that
+reaches past py_trees' client bookkeeping for them.
+
+=================  ==================================================================
+key                content
+=================  ==================================================================
+``features``       smoothed :class:`~tactile_bt.perception.features.ContactFeatures` (paper Sec. V)
+``features_raw``   the same before smoothing
+``time``           mission clock in s (never wall time)
+``dt``             control period in s
+``command``        the cycle's :class:`~tactile_bt.control.servo.ServoCommand`
+``pose``           ``T_gs``, 4x4 pose of the sensor frame in the base frame
+``contacts``       the mission's contact cloud (:class:`~tactile_bt.contacts.cloud.ContactCloud`)
+``pad``            the pad's :class:`~tactile_bt.sense.geometry.PadGeometry`
+=================  ==================================================================
+
+The keys are registered once by :func:`cycle_writer` (so py_trees knows who writes them); the
+per-cycle values are then read and written through :func:`read` and :func:`write`, straight in
+the blackboard's storage: a client's access bookkeeping costs several microseconds a read, more
+than the control law.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import py_trees
+from py_trees.common import Access
+
+__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "cycle_writer", "read", "write",
+           "write_cycle"]
+
+NAMESPACE = "/tactile"
+KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts", "pad")
+FEATURES, FEATURES_RAW, TIME, POSE = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose"))
+_STORAGE = py_trees.blackboard.Blackboard.storage
+
+
+def read(key: str) -> Any:
+    """The value of a registered blackboard key (full name, e.g. :data:`FEATURES`)."""
+    return _STORAGE[key]
+
+
+def write(key: str, value: Any) -> None:
+    """Set a registered blackboard key (full name)."""
+    _STORAGE[key] = value
+
+
+def write_cycle(t: float, pose: np.ndarray, features_raw, features) -> None:
+    """The per-cycle inputs of a tick: mission time (s), ``T_gs`` and the features."""
+    _STORAGE[TIME] = t
+    _STORAGE[POSE] = pose
+    _STORAGE[FEATURES_RAW] = features_raw
+    _STORAGE[FEATURES] = features
+
+
+def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | None = None, pad=None):
+    """A blackboard client that owns the ``/tactile`` keys, with the mission's constant objects
+    (cycle command, contact cloud, control period in s, pad geometry) and an initial pose written.
+
+    The mission loop and :class:`tactile_bt.testing.LeafHarness` both start from it.
+    """
+    writer = py_trees.blackboard.Client(name=name, namespace=NAMESPACE)
+    for key in KEYS:
+        writer.register_key(key=key, access=Access.WRITE)
+    writer.command = command
+    writer.contacts = contacts
+    writer.dt = float(dt)
+    writer.time = 0.0
+    writer.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
+    writer.features = writer.features_raw = None
+    writer.pad = pad
+    return writer
