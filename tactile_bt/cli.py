@@ -33,26 +33,14 @@ def _cmd_run(args) -> int:
                              params=args.param, blackboard=args.blackboard)
     finally:
         progress.close()
-    r = result.report
-    print(f"{r['status']}{': ' + r['reason'] if r['reason'] else ''} after {r['sim_time_s']:.2f} s "
-          f"({r['ticks']} ticks, {r['real_time_factor']:.1f}x real time)")
-    _print_report(r)
-    if "path_error_m" in r:
-        p = r["path_error_m"]
-        print(f"  path error       mean {p['mean'] * 1e3:.2f} mm  max {p['max'] * 1e3:.2f} mm  "
-              f"followed {p['followed_m'] * 1e3:.0f} of {p['cable_length_m'] * 1e3:.0f} mm")
-    rec = r.get("reconstruction")
-    if rec and rec.get("chamfer_m") is not None:
-        print(f"  reconstruction   {rec['method']}, {rec['points']} contacts: chamfer {rec['chamfer_m'] * 1e3:.2f} mm, "
-              f"Hausdorff {rec['hausdorff_m'] * 1e3:.2f} mm, coverage {rec['coverage']:.3f} of {rec['region']}")
+    r = result.summary
+    print(f"{r.status}{': ' + r.reason if r.reason else ''} after {r.sim_time_s:.2f} s "
+          f"({r.ticks} ticks, {r.real_time_factor:.1f}x real time)")
+    print("\n".join(r.summary_lines()))
+    for warning in r.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     print(f"  outputs in {args.out}")
-    return 0 if r["status"] in ("success", "completed") else 1
-
-
-def _print_report(r: dict) -> None:
-    for name, m in r["metrics"].items():
-        print(f"  {name:16s} steady-state {m['steady_state_error']:+.4g}  std {m['std']:.4g}  "
-              f"response {m['response_time_s']:.2f} s")
+    return 0 if r.ok else 1
 
 
 def _cmd_replay(args) -> int:
@@ -65,13 +53,13 @@ def _cmd_replay(args) -> int:
     except OSError as exc:  # an unreadable recording or calibration file
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    r = result.report
-    print(f"{r['status']}{': ' + r['reason'] if r['reason'] else ''} after {r['ticks']} frames "
-          f"({r['real_time_factor']:.1f}x the recorded pace)")
-    _print_report(r)
+    r = result.summary
+    print(f"{r.status}{': ' + r.reason if r.reason else ''} after {r.ticks} frames "
+          f"({r.real_time_factor:.1f}x the recorded pace)")
+    print("\n".join(r.summary_lines()))
     if args.out:
         print(f"  outputs in {args.out}")
-    return 0 if r["status"] in ("success", "completed") else 1
+    return 0 if r.ok else 1
 
 
 def _cmd_tree(args) -> int:
@@ -139,7 +127,7 @@ def _cmd_stability(args) -> int:
 
 
 def _cmd_accuracy(args) -> int:
-    from tactile_bt.perception.synthetic import cop_accuracy, orientation_comparison
+    from tactile_bt.experiments.accuracy import cop_accuracy, orientation_comparison
 
     if args.png:  # before any work
         check_output(args.png, force=True, option="--png", create_parent=True)

@@ -3,6 +3,8 @@
 Every number that describes the hardware of the paper (Li et al., RSS 2013, Sec. III and V)
 or a default of the control loop lives here, in SI units.  Modules import from here instead of
 repeating literals; scenes, trees and ``--set`` overrides change them per run.
+
+Layer: base.
 """
 
 from __future__ import annotations

@@ -1,5 +1,8 @@
 """Progress of long commands on stderr: a tqdm bar on a terminal, a periodic one-line report
-otherwise (logs of batch jobs and CI get a line every ``every_s`` seconds of wall time)."""
+otherwise (logs of batch jobs and CI get a line every ``every_s`` seconds of wall time).
+
+Layer: base.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,7 @@
-"""YAML reading that remembers where every value came from, for errors that name file and line."""
+"""YAML reading that remembers where every value came from, for errors that name file and line.
+
+Layer: base.
+"""
 
 from __future__ import annotations
 

@@ -41,13 +41,6 @@ DT = 1.0 / 128.0
 ROWS = {"vx": 0, "vy": 1, "vz": 2, "wx": 3, "wy": 4, "wz": 5}
 
 
-@pytest.fixture(autouse=True)
-def fresh_blackboard():
-    """Every test starts from an empty /tactile blackboard."""
-    py_trees.blackboard.Blackboard.clear()
-    yield
-    py_trees.blackboard.Blackboard.clear()
-
 
 def nonzero_rows(twist):
     return {name for name, i in ROWS.items() if twist[i] != 0.0}

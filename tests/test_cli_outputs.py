@@ -4,11 +4,9 @@ directories, interrupted runs, runs that never touch anything. Every error is on
 from __future__ import annotations
 
 import json
-import os
 import runpy
 from pathlib import Path
 
-import py_trees
 import pytest
 
 from tactile_bt import load_tree

@@ -28,12 +28,6 @@ CABLE_TREE = REPO / "trees" / "cable_follow.yaml"
 FILE = "my_tree.yaml"
 
 
-@pytest.fixture(autouse=True)
-def fresh_blackboard():
-    py_trees.blackboard.Blackboard.clear()
-    yield
-    py_trees.blackboard.Blackboard.clear()
-
 
 def load_error(text: str) -> TreeError:
     with pytest.raises(TreeError) as info:
@@ -943,10 +937,10 @@ def test_guided_slide_twist_key_from_yaml_follows_the_planner_every_tick():
     assert h.twist.tolist() == [0.02, 0.0, 0.0, 0.0, 0.0, 0.1]
 
 
-def test_register_a_leaf_of_your_own():
+def test_register_a_leaf_of_your_own(node_registry):
     from typing import Literal
 
-    from tactile_bt.tree.behaviours import LEAVES, TactileBehaviour
+    from tactile_bt.tree.behaviours import TactileBehaviour
     from tactile_bt.tree.reference import describe_nodes
     from tactile_bt.tree.registry import register_node
 
@@ -969,14 +963,11 @@ def test_register_a_leaf_of_your_own():
             return Status.SUCCESS if self.features_raw.force > self.force_n else Status.RUNNING
 
     register_node("tap", Tap)
-    try:
-        leaf = load_tree(FILE, text="root:\n  tap: {force_n: 500 mN, mode: all}\n").root
-        assert isinstance(leaf, Tap) and leaf.force_n == 0.5 and leaf.mode == "all"
-        err = load_error("root:\n  tap: {mode: sum}\n")
-        assert err.line == 2 and "did you mean" not in str(err) and "valid: any, all" in str(err)
-        assert "did you mean 'tap'" in str(load_error("root:\n  tapp: {}\n"))
-        assert describe_nodes()["tap"].parameters[1].unit == "N"
-        with pytest.raises(ValueError, match="exists"):
-            register_node("tap", Tap)
-    finally:
-        LEAVES.pop("tap")
+    leaf = load_tree(FILE, text="root:\n  tap: {force_n: 500 mN, mode: all}\n").root
+    assert isinstance(leaf, Tap) and leaf.force_n == 0.5 and leaf.mode == "all"
+    err = load_error("root:\n  tap: {mode: sum}\n")
+    assert err.line == 2 and "did you mean" not in str(err) and "valid: any, all" in str(err)
+    assert "did you mean 'tap'" in str(load_error("root:\n  tapp: {}\n"))
+    assert describe_nodes()["tap"].parameters[1].unit == "N"
+    with pytest.raises(ValueError, match="exists"):
+        register_node("tap", Tap)

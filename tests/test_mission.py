@@ -12,7 +12,7 @@ from numpy.testing import assert_array_equal
 
 from tactile_bt import load_tree, run_mission
 from tactile_bt.tree.behaviours import Approach, ForceHold, TactileBehaviour
-from tactile_bt.mission.outputs import read_ply_points
+from tactile_bt.contacts.ply import read_ply_points
 
 ROOT = Path(__file__).resolve().parent.parent
 CABLE_TREE = ROOT / "trees" / "cable_follow.yaml"

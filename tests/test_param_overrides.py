@@ -13,7 +13,7 @@ from tactile_bt.tree.behaviours import ForceHold
 from tactile_bt.cli import main
 from tactile_bt.tree.loader import format_parameters
 from tactile_bt.errors import TreeError
-from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
+from tactile_bt.testing import LeafHarness, make_features
 
 ROOT = Path(__file__).resolve().parents[1]
 FORCE_TREE = ROOT / "trees" / "force_hold.yaml"
@@ -40,11 +40,6 @@ root:
                 - contact_lost: {grace_s: 0.3}
 """
 
-
-@pytest.fixture(autouse=True)
-def clean():
-    with fresh_blackboard():
-        yield
 
 
 def tree_with(params=None, blackboard=None, text=TREE):

@@ -14,15 +14,10 @@ from tactile_bt.tree.parameters import FINITE, Bound, bounds_of, check_bound, co
 from tactile_bt.errors import ParameterValueError
 from tactile_bt.cli import main
 from tactile_bt.errors import TreeError
-from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
+from tactile_bt.testing import LeafHarness, make_features
 
 FILE = "trees/x.yaml"
 
-
-@pytest.fixture(autouse=True)
-def clean():
-    with fresh_blackboard():
-        yield
 
 
 def load_error(text: str) -> TreeError:

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from tactile_bt.contacts.reconstruct import (METHODS, bench_reconstruction, best_fit_plane, clean_mesh, cloud_spacing,
+from tactile_bt.experiments.bench import bench_reconstruction
+from tactile_bt.contacts.reconstruct import (METHODS, best_fit_plane, clean_mesh, cloud_spacing,
                                     reconstruct, thin_cloud, write_surface)
 from tactile_bt.mission.accuracy import reconstruction_metrics
 

@@ -29,12 +29,6 @@ DT = 1.0 / 250.0
 DOWN = Rotation.from_euler("x", 180, degrees=True)  # pad facing down: x_s = x_g, y_s = -y_g
 
 
-@pytest.fixture(autouse=True)
-def fresh_blackboard():
-    py_trees.blackboard.Blackboard.clear()
-    yield
-    py_trees.blackboard.Blackboard.clear()
-
 
 def ticks_until_done(h, n, **features):
     """Tick up to ``n`` times; the number of ticks until the leaf finished and its status."""

@@ -12,14 +12,8 @@ from scipy import ndimage
 from tactile_bt import defaults
 from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.perception.features import extract, wrap_half_pi
-from tactile_bt.perception.synthetic import (
-    add_spurious_blob,
-    blob_contact,
-    cop_accuracy,
-    line_contact,
-    orientation_comparison,
-    sensor_effects,
-)
+from tactile_bt.experiments.accuracy import cop_accuracy, orientation_comparison
+from tactile_bt.perception.synthetic import add_spurious_blob, blob_contact, line_contact, sensor_effects
 
 PAD = (defaults.ROWS, defaults.COLS)
 EIGHT = np.ones((3, 3), dtype=bool)

@@ -20,18 +20,12 @@ from tactile_bt.testing import (
     FramePerception,
     LeafHarness,
     contact_frame,
-    fresh_blackboard,
     make_features,
     raw_frame,
 )
 
 DT = 1.0 / 128.0
 
-
-@pytest.fixture(autouse=True)
-def clean():
-    with fresh_blackboard():
-        yield
 
 
 def test_module_examples_run():

@@ -34,12 +34,6 @@ PAPER = {
 DT = 1.0 / 128.0
 
 
-@pytest.fixture(autouse=True)
-def fresh_blackboard():
-    py_trees.blackboard.Blackboard.clear()
-    yield
-    py_trees.blackboard.Blackboard.clear()
-
 
 def ids(paths):
     return [str(p.relative_to(REPO)) for p in paths]

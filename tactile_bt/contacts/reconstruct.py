@@ -31,6 +31,8 @@ triangles. :class:`Reconstruction` says whether the mesh is watertight.
 
 trimesh and (for ``surface``) pyvista are imported when a function here runs, never by a
 mission that does not reconstruct.
+
+Layer: contacts.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
 __all__ = ["METHODS", "Reconstruction", "reconstruct", "clean_mesh", "thin_cloud", "cloud_spacing",
-           "best_fit_plane", "write_surface", "bench_reconstruction"]
+           "best_fit_plane", "write_surface"]
 
 #: Accepted ``method`` values of :func:`reconstruct`.
 METHODS = ("auto", "delaunay", "surface", "hull")
@@ -297,36 +299,3 @@ def reconstruct(points: np.ndarray, normals: np.ndarray | None = None, method: s
 def write_surface(path, mesh) -> None:
     """Write a mesh as binary PLY (``surface.ply``), world frame, metres."""
     mesh.export(str(path), file_type="ply")
-
-
-def _synthetic_cloud(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` points with normals on the upper half of a lying cylinder (R 50 mm, 200 mm long),
-    with 0.1 mm noise: what a scan of its upper side records."""
-    rng = np.random.default_rng(seed)
-    theta = rng.uniform(-1.3, 1.3, n)
-    x = rng.uniform(-0.1, 0.1, n)
-    normals = np.column_stack((np.zeros(n), np.sin(theta), np.cos(theta)))
-    points = np.column_stack((x, 0.05 * normals[:, 1], 0.05 + 0.05 * normals[:, 2]))
-    return points + rng.normal(0.0, 1e-4, points.shape), normals
-
-
-def bench_reconstruction(n: int = 20000, methods=("delaunay", "surface", "hull", "auto"), repeats: int = 1,
-                         seed: int = 0) -> dict:
-    """Time :func:`reconstruct` on a synthetic ``n``-point scan cloud (target: under 2 s).
-
-    Returns
-    -------
-    dict
-        ``points``, ``target_s`` (2.0) and, per method, ``<method>_s`` (best of ``repeats``
-        wall times, s) and ``<method>_faces``.
-    """
-    points, normals = _synthetic_cloud(n, seed)
-    out: dict = {"points": int(n), "target_s": 2.0}
-    for method in methods:
-        best, faces = float("inf"), 0
-        for _ in range(max(1, repeats)):
-            r = reconstruct(points, normals, method=method)
-            best, faces = min(best, r.time_s), r.info["faces"]
-        out[f"{method}_s"] = best
-        out[f"{method}_faces"] = faces
-    return out

@@ -20,6 +20,8 @@ the object):
 
 The paper writes every entry as 1; the rolling rows carry ``1/r`` (``roll_radius``, m) so that a
 position command in m/s becomes an angular rate in rad/s.
+
+Layer: control.
 """
 
 from __future__ import annotations

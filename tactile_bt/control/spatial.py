@@ -10,6 +10,8 @@ Conventions
 
 Rotations go through :mod:`scipy.spatial.transform`; only the translational part of the
 SE(3) exponential is written here.
+
+Layer: control.
 """
 
 from __future__ import annotations

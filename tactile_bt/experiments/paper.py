@@ -4,6 +4,8 @@ Each experiment is a tree from ``trees/`` on a scene from ``sim/``, run for 20 t
 seeds 0–19 (new sensor characteristics and noise each trial), the paper's protocol (Sec. V).
 The metrics are those of :mod:`tactile_bt.mission.metrics`; the pressure is reported in units of the
 target (the paper's p = 1 = 2 kPa), positions in tactels (px).
+
+Layer: experiments.
 """
 
 from __future__ import annotations
@@ -67,8 +69,9 @@ def _trial(args) -> dict:
 
     result = run_mission(ROOT / exp.tree, ROOT / exp.scene, duration=duration, seed=seed,
                          overrides=list(exp.overrides))
-    out = {"key": exp.key, "seed": seed, "status": result.report["status"],
-           "metrics": result.report["metrics"], "wall_time_s": result.report["wall_time_s"]}
+    r = result.summary
+    out = {"key": exp.key, "seed": seed, "status": r.status,
+           "metrics": {k: m.to_dict() for k, m in r.metrics.items()}, "wall_time_s": r.wall_time_s}
     if keep_log:
         keys = ("t", "pressure_pa", "pressure_raw_pa", "error_pressure_pa", "error_cop_x_px",
                 "error_cop_y_px", "rotation", "position_m")

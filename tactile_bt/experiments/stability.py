@@ -11,6 +11,8 @@ Three parts, each a set of short missions:
 
 Per case: force overshoot, steady-state error, standard deviation, response time, largest
 penetration, whether anything non-finite appeared, the wall time, and a verdict.
+
+Layer: experiments.
 """
 
 from __future__ import annotations
@@ -118,13 +120,13 @@ def run_case(case: Case) -> dict:
     except Exception as exc:  # a crash is a finding, not the end of the table
         return {"case": case.name, "group": case.group, "verdict": f"error: {type(exc).__name__}: {exc}",
                 "ok": False, "wall_time_s": time.perf_counter() - started, "note": case.note}
-    log, report = result.log, result.report
+    log, report = result.log, result.summary
     finite = _finite(log)
-    m = report["metrics"].get("pressure_pa", {})
+    m = report.metrics.get("pressure_pa")
     err = log["pressure_raw_pa"] - TARGET
     controlled = np.isfinite(log["error_pressure_pa"])
     overshoot = float(np.max(err[controlled]) / TARGET) if controlled.any() else math.nan
-    response = m.get("response_time_s", math.nan)
+    response = m.response_time_s if m else math.nan
     margin = manipulability = math.nan
     if "joints_rad" in log:
         from tactile_bt.robot.kinematics import LWR4Kinematics
@@ -139,29 +141,29 @@ def run_case(case: Case) -> dict:
         "min_joint_margin_deg": margin,
         "min_manipulability": manipulability,
         "group": case.group,
-        "status": report["status"],
-        "reason": report["reason"],
+        "status": report.status,
+        "reason": report.reason,
         "overshoot": overshoot,
-        "steady_state_error": m.get("steady_state_error", math.nan) / TARGET if m else math.nan,
-        "std": m.get("std", math.nan) / TARGET if m else math.nan,
+        "steady_state_error": m.steady_state_error / TARGET if m else math.nan,
+        "std": m.std / TARGET if m else math.nan,
         "response_time_s": response,
         "max_penetration_mm": float(np.nanmax(log["penetration_m"])) * 1e3 if len(log["t"]) else 0.0,
         "finite": finite,
-        "sim_time_s": report["sim_time_s"],
+        "sim_time_s": report.sim_time_s,
         "wall_time_s": time.perf_counter() - started,
         "note": case.note,
     }
     if not finite:
         verdict, ok = "non-finite values", False
     elif case.expect == "settled":
-        ok = report["status"] in ("success", "completed") and math.isfinite(response) and response <= 2.0
-        verdict = f"settled in {response:.2f} s" if ok else f"not settled within 2 s ({report['status']})"
+        ok = report.ok and math.isfinite(response) and response <= 2.0
+        verdict = f"settled in {response:.2f} s" if ok else f"not settled within 2 s ({report.status})"
     elif case.expect == "guarded":
-        ok = report["status"] == "failure" and bool(report["reason"])
-        verdict = f"stopped by the guard: {report['reason']}" if ok else f"guard did not act ({report['status']})"
+        ok = report.status == "failure" and bool(report.reason)
+        verdict = f"stopped by the guard: {report.reason}" if ok else f"guard did not act ({report.status})"
     else:
-        ok = report["status"] in ("success", "completed", "failure")
-        verdict = f"finite ({report['status']})"
+        ok = report.status in ("success", "completed", "failure")
+        verdict = f"finite ({report.status})"
     row.update(ok=ok, verdict=verdict)
     return row
 
@@ -174,12 +176,13 @@ def run_rates(rates=(100, 250, 500, 1000, 1900), duration: float = 20.0) -> list
     for rate in rates:
         r = run_mission(ROOT / "trees/cable_follow.yaml", ROOT / "sim/cable.yaml", duration=duration, seed=0,
                         overrides=[f"rate_hz={rate}"])
-        rep = r.report
+        rep = r.summary
+        path = rep.path_error_m
         rows.append({
-            "rate_hz": rate, "status": rep["status"], "wall_time_s": rep["wall_time_s"],
-            "real_time_factor": rep["real_time_factor"], "path_error_mean_mm": rep["path_error_m"]["mean"] * 1e3,
-            "path_error_max_mm": rep["path_error_m"]["max"] * 1e3, "followed_mm": rep["path_error_m"]["followed_m"] * 1e3,
-            "pressure_std": rep["metrics"]["pressure_pa"]["std"] / TARGET,
+            "rate_hz": rate, "status": rep.status, "wall_time_s": rep.wall_time_s,
+            "real_time_factor": rep.real_time_factor, "path_error_mean_mm": path["mean"] * 1e3,
+            "path_error_max_mm": path["max"] * 1e3, "followed_mm": path["followed_m"] * 1e3,
+            "pressure_std": rep.metrics["pressure_pa"].std / TARGET,
             "pressure_steady_state_error": rep["metrics"]["pressure_pa"]["steady_state_error"] / TARGET,
             "finite": _finite(r.log),
         })

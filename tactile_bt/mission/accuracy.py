@@ -26,6 +26,8 @@ C = the contact cloud):
 
 The scan region (``scan_region``, from the scene or :func:`tactile_bt.run_mission`) is described
 in :mod:`tactile_bt.sim.region`; no region (or an empty mapping) is the whole object.
+
+Layer: mission.
 """
 
 from __future__ import annotations

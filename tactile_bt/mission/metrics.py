@@ -9,6 +9,8 @@ controller sees it, i.e. after the paper's 10-sample smoothing for pressure and 
   it for a dwell time (bands and dwell in :mod:`tactile_bt.defaults`);
 * ``steady_state_error`` and ``std``: mean and standard deviation of ``e`` from the response time
   to the end of the window (``t0`` + 20 s, or the end of the run), the paper's definition.
+
+Layer: mission.
 """
 
 from __future__ import annotations

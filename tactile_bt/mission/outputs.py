@@ -1,5 +1,8 @@
 """Mission outputs: report.json, log.npz, errors.png and contacts.ply; for a scan (a mission
-whose tree or run reconstructs a surface) also surface.ply and render.png."""
+whose tree or run reconstructs a surface) also surface.ply and render.png.
+
+Layer: mission.
+"""
 
 from __future__ import annotations
 
@@ -10,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.contacts.ply import write_ply
 from tactile_bt.errors import OutputPathError
 from tactile_bt import defaults
 
-__all__ = ["OUTPUT_FILES", "OutputPathError", "prepare_output_dir", "plot_errors", "write_outputs", "write_ply", "read_ply_points"]
+__all__ = ["OUTPUT_FILES", "prepare_output_dir", "plot_errors", "write_outputs"]
 
 #: Every file a mission may write into its output directory.
 OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "contacts.ply", "surface.ply", "render.png")
@@ -96,34 +100,13 @@ def plot_errors(result, path: str | Path | None = None):
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="k", lw=0.5)
-    report = result.report
-    fig.suptitle(f"{Path(str(report['tree'])).stem} on {Path(str(report['scene'])).stem}: "
-                 f"{report['status']}, seed {report['seed']}", fontsize=10)
+    report = result.summary
+    fig.suptitle(f"{Path(report.tree).stem} on {Path(report.scene).stem}: {report.status}, seed {report.seed}",
+                 fontsize=10)
     if path is not None:
         fig.savefig(path, dpi=110)
         plt.close(fig)
     return fig
-
-
-def write_ply(path: str | Path, data: np.ndarray, names=("x", "y", "z", "nx", "ny", "nz", "pressure", "t")) -> None:
-    """Write an ``(N, k)`` point array as a binary little-endian PLY with float properties."""
-    data = np.ascontiguousarray(data, dtype="<f4")
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(data)}"]
-    header += [f"property float {n}" for n in names[: data.shape[1]]]
-    header.append("end_header")
-    with open(path, "wb") as fh:
-        fh.write(("\n".join(header) + "\n").encode("ascii"))
-        fh.write(data.tobytes())
-
-
-def read_ply_points(path: str | Path) -> tuple[list[str], np.ndarray]:
-    """Read a PLY written by :func:`write_ply`: property names and the ``(N, k)`` array."""
-    raw = Path(path).read_bytes()
-    end = raw.index(b"end_header\n") + len(b"end_header\n")
-    lines = raw[:end].decode("ascii").splitlines()
-    n = next(int(line.split()[2]) for line in lines if line.startswith("element vertex"))
-    names = [line.split()[2] for line in lines if line.startswith("property")]
-    return names, np.frombuffer(raw[end:], dtype="<f4", count=n * len(names)).reshape(n, len(names))
 
 
 def write_outputs(result, out: Path, render: bool = True) -> None:
@@ -134,7 +117,7 @@ def write_outputs(result, out: Path, render: bool = True) -> None:
     off screen).
     """
     out = prepare_output_dir(out)
-    (out / "report.json").write_text(json.dumps(_jsonable(result.report), indent=2) + "\n")
+    (out / "report.json").write_text(json.dumps(_jsonable(result.summary.to_dict()), indent=2) + "\n")
     np.savez_compressed(out / "log.npz", **result.log)
     if len(result.contact_data):
         write_ply(out / "contacts.ply", result.contact_data)
@@ -144,7 +127,7 @@ def write_outputs(result, out: Path, render: bool = True) -> None:
         from tactile_bt.contacts.reconstruct import write_surface
 
         write_surface(out / "surface.ply", surface)
-    if render and "reconstruction" in result.report:
+    if render and result.summary.reconstruction is not None:
         from tactile_bt.mission.view import render_mission
 
         try:

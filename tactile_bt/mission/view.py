@@ -4,15 +4,19 @@ cable and the pad's path; in a window or off screen to a PNG.
 
 Only ``tactile-bt view`` and the outputs of a scan mission (``render.png``) import this module,
 so other missions never load VTK.
+
+Layer: mission.
 """
 
 from __future__ import annotations
 
-import json
+import math
 import os
 from pathlib import Path
 
 import numpy as np
+
+from tactile_bt.mission.report import MissionReport
 
 __all__ = ["render_mission", "MAX_POINTS_SHOWN"]
 
@@ -75,12 +79,12 @@ def _primitive(obj, pv):
 _METHOD_NAMES = {"delaunay": "Delaunay surface", "surface": "implicit surface", "hull": "convex hull"}
 
 
-def _scan_title(report: dict) -> str:
-    r = report.get("reconstruction") or {}
+def _scan_title(report: MissionReport) -> str:
+    r = report.reconstruction or {}
     if "error" in r:
         return f"\nreconstruction failed: {r['error']}"
     method = _METHOD_NAMES.get(r.get("method"), r.get("method", "?"))
-    parts = [f"{report.get('contacts', 0)} contacts; {method}, {r.get('faces', 0)} triangles"]
+    parts = [f"{report.contacts} contacts; {method}, {r.get('faces', 0)} triangles"]
     if r.get("chamfer_m") is not None:
         parts.append(f"chamfer {r['chamfer_m'] * 1e3:.2f} mm, Hausdorff {r['hausdorff_m'] * 1e3:.1f} mm")
     if r.get("coverage") is not None:
@@ -110,20 +114,17 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    from tactile_bt.mission.outputs import read_ply_points
+    from tactile_bt.contacts.ply import read_ply_points
     from tactile_bt.sim.scene import load_scene
 
     out = Path(out_dir)
-    report_file = out / "report.json"
-    if not report_file.exists():
-        raise FileNotFoundError(f"{report_file} not found: is {out} the output of 'tactile-bt run'?")
-    report = json.loads(report_file.read_text())
-    scan = "reconstruction" in report
+    report = MissionReport.load(out)
+    scan = report.reconstruction is not None
     if color_by is None:
         color_by = "time" if scan else "pressure"
     if color_by not in ("time", "pressure"):
         raise ValueError(f"color_by must be 'time' or 'pressure', got {color_by!r}")
-    scene = load_scene(report["scene"])
+    scene = load_scene(report.scene)
     log = np.load(out / "log.npz")
     path = log["position_m"]
     points = np.zeros((0, 8))
@@ -179,12 +180,12 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
         plotter.add_mesh(cloud, scalars=name, cmap="viridis", point_size=size,
                          render_points_as_spheres=True, label="contacts",
                          scalar_bar_args={"position_x": 0.45, "width": 0.45, "fmt": fmt, "color": "black"})
-    title = f"{Path(report['tree']).stem} on {Path(report['scene']).stem}: {report['status']}"
+    title = f"{Path(report.tree).stem} on {Path(report.scene).stem}: {report.status}"
     if scan:
         title += _scan_title(report)
-    if "path_error_m" in report and report["path_error_m"].get("mean") is not None:
-        p = report["path_error_m"]
-        title += f"\npath error mean {p['mean'] * 1e3:.2f} mm, max {p['max'] * 1e3:.2f} mm, {report['contacts']} contacts"
+    p = report.path_error_m
+    if p and p.get("mean") is not None and math.isfinite(p["mean"]):
+        title += f"\npath error mean {p['mean'] * 1e3:.2f} mm, max {p['max'] * 1e3:.2f} mm, {report.contacts} contacts"
     plotter.add_text(title, font_size=11, color="black")
     plotter.add_legend(bcolor="white", face="rectangle", size=(0.16, 0.12), loc="lower left")
     centre = (everything.min(axis=0) + everything.max(axis=0)) / 2

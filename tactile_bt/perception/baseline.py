@@ -6,6 +6,8 @@
 image as intensity image, the largest region by area (ties: larger force), its
 ``centroid_weighted`` as COP and its ``moments_weighted_central`` for the orientation.
 ``tactile-bt bench`` times both on the same frame; the tests check that they agree.
+
+Layer: perception.
 """
 
 from __future__ import annotations

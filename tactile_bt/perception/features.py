@@ -24,6 +24,8 @@ blob gives ~0; a straight 2-tactel-wide, 3-tactel-long bar already gives 0.45; a
 Speed: a 16x16 frame costs one ``scipy.ndimage.label`` plus a handful of numpy calls; all
 moments come from one matrix product of the masked image with a cached ``(N, 6)`` basis of
 ``[1, x, y, x^2, xy, y^2]``.
+
+Layer: perception.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 All filters are O(1) per sample: a fixed-size ring buffer with a running sum that is recomputed
 exactly every ``n`` pushes, so rounding errors cannot accumulate over a long mission.  They run
 once per control cycle (4 ms at 250 Hz).
+
+Layer: perception.
 """
 
 from __future__ import annotations

@@ -38,6 +38,8 @@ iteration on the combined arm and contact stiffness, stable from 1e2 to 1e7 N/m;
 :mod:`tactile_bt.robot.equilibrium` (with :data:`WrenchFn`, :class:`SettleResult`,
 :func:`point_wrench` and :func:`bracket_stiffness`, which this module re-exports) and is
 described there.
+
+Layer: robot.
 """
 
 from __future__ import annotations

@@ -41,6 +41,8 @@ semismooth Newton method and spares the finite differences: 1-2 iterations per s
 
 Tested from 1e2 to 1e7 N/m, from a warm start and from an equilibrium posture 10-50 mm inside a
 rigid table (``tests/test_arm.py``).
+
+Layer: robot.
 """
 
 from __future__ import annotations

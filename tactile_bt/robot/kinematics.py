@@ -26,6 +26,8 @@ default fingertip mount are :mod:`tactile_bt.robot.lwr4_params`; resolved-rate m
 (:meth:`LWR4Kinematics.resolved_rate`: damped least squares with joint-limit saturation in the
 null space) is :mod:`tactile_bt.robot.resolved_rate`.  This module re-exports their names; it
 holds the forward and differential kinematics and the pose IK :meth:`LWR4Kinematics.ik_pose`.
+
+Layer: robot.
 """
 
 from __future__ import annotations

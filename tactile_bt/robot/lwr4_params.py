@@ -31,6 +31,8 @@ Classic (distal) DH table of the LWR 4::
 
 The classic convention is used, not the modified (Craig) one: both give the same flange pose,
 they only attach the intermediate frames differently.
+
+Layer: robot.
 """
 
 from __future__ import annotations

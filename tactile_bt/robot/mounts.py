@@ -19,6 +19,8 @@ field          meaning                                   default
 The ideal mount follows the commanded twist exactly. The arm turns it into joint velocities by
 damped resolved rates; they move its equilibrium posture, and contact forces deflect it
 through the joint stiffness (:class:`tactile_bt.robot.arm.CompliantArm`).
+
+Layer: robot.
 """
 
 from __future__ import annotations

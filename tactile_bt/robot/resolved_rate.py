@@ -19,6 +19,8 @@ while one joint rests on its stop.  Joint velocity limits scale the whole vector
 is kept).  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
 centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
 damped (approximate) solution independent of where the base origin lies.
+
+Layer: robot.
 """
 
 from __future__ import annotations

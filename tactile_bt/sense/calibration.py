@@ -18,6 +18,8 @@ Nominal tactel (:meth:`TactelCalibration.nominal`): offset :data:`NOMINAL_OFFSET
 at exactly :data:`NOMINAL_SATURATION_N` = 0.25 N per tactel (10 kPa on a 25 mm^2 tactel).  The
 slope at zero force is ~25 000 counts/N (1 count ~ 0.04 mN); at 0.1 N the response is 18 % below
 the tangent (the "linear-ish" range), at 0.25 N it is 37 % below.
+
+Layer: sense.
 """
 
 from __future__ import annotations

@@ -13,6 +13,8 @@ An event turns the object about its own origin by the extrinsic x-y-z angles ``r
 :meth:`tactile_bt.sim.objects.SimObject.moved`. :meth:`tactile_bt.sim.world.World.update`
 applies the events that are due, once each, in the order of their times (events at the same
 time in the order of the file), and tells the sensor model that the objects moved.
+
+Layer: sim.
 """
 
 from __future__ import annotations

@@ -44,6 +44,8 @@ tactel diagonal plus 2 mm) only reads the exact shell and the near band, which
 :data:`NEAR_M` makes wider than that reach.
 
 ``trimesh`` is imported only when a mesh file is loaded.
+
+Layer: sim.
 """
 
 from __future__ import annotations

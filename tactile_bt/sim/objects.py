@@ -18,6 +18,8 @@ displaced in the world (scene events).
 Shapes: :class:`Table` and :class:`Cable` here, ``Box``, ``Sphere`` and ``Cylinder`` in
 :mod:`tactile_bt.sim.shapes`, triangle meshes in :mod:`tactile_bt.sim.mesh_object` (which
 imports trimesh only when a mesh is loaded).
+
+Layer: sim.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ Pipeline per frame (all in SI units):
    12-bit quantisation and saturation.
 
 Perception inverts step 4 with the calibration of the same tactels.
+
+Layer: sim.
 """
 
 from __future__ import annotations

@@ -8,6 +8,8 @@ then checks the start: the arm reaches the start pose, and the pad starts at mos
 :data:`MAX_START_DEPTH_M` inside any object. Every error is a :class:`SceneError` (the
 :class:`~tactile_bt.errors.YamlError` the command line reports in one line). The schema, with
 units, bounds and defaults, is documented in ``sim/README.md``.
+
+Layer: sim.
 """
 
 from __future__ import annotations

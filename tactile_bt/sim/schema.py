@@ -4,6 +4,8 @@ A kind is a string for non-numeric values (``"string"``, ``"mapping"``, ``"list"
 :class:`Range` for numbers and integers (finite, within bounds), or a :class:`ListOf` for
 fixed-length lists. ``str(kind)`` is the phrase used in error messages
 (``expected an integer from 1 to 128``) and in ``sim/README.md``.
+
+Layer: sim.
 """
 
 from __future__ import annotations

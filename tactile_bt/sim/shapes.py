@@ -3,6 +3,8 @@
 Each shape is centred on its frame's origin (``pose`` places it in the world, see
 :class:`tactile_bt.sim.objects.SimObject`). The signed distances are exact Euclidean
 distances, hence 1-Lipschitz, negative inside.
+
+Layer: sim.
 """
 
 from __future__ import annotations

@@ -1,5 +1,8 @@
 """The simulated world: objects, the pad on its mount, and one step of the control cycle's
-"robot" side (move by a base-frame twist, then sense)."""
+"robot" side (move by a base-frame twist, then sense).
+
+Layer: sim.
+"""
 
 from __future__ import annotations
 

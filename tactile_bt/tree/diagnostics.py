@@ -4,6 +4,8 @@ did-you-mean hint.
 Every error of :mod:`tactile_bt.tree.loader` and :mod:`tactile_bt.tree.subtrees` names the file, line and
 column of the offending value and the field it belongs to (``err.message``, ``err.field``), so
 that editors and tests can point at it; this module builds them.
+
+Layer: tree.
 """
 
 from __future__ import annotations

@@ -13,6 +13,8 @@ comes from.
 A blackboard reference makes a parameter follow a blackboard key: the key is read when the node
 is *initialised* (each time it starts), never on every tick, so references cost nothing on the
 control cycle's hot path. See :func:`bind_blackboard`.
+
+Layer: tree.
 """
 
 from __future__ import annotations

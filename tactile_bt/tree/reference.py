@@ -6,6 +6,8 @@ docstrings of the behaviour classes; :func:`reference_markdown` renders that as 
 and :func:`update_reference` rewrites the generated part of a Markdown file.  All of them are
 re-exported by :mod:`tactile_bt.tree.loader`; regenerate the reference with
 ``python -m tactile_bt.tree.reference docs/trees.md``.
+
+Layer: tree.
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@ parameters are listed here (:data:`COMPOSITES`); decorators and leaves are the b
 registered in :mod:`tactile_bt.tree.behaviours` (``DECORATORS``, ``LEAVES``), to which
 :func:`register_node` adds classes of your own.  :mod:`tactile_bt.tree.loader` builds nodes from this
 registry (and re-exports its names); :mod:`tactile_bt.tree.reference` documents it.
+
+Layer: tree.
 """
 
 from __future__ import annotations

@@ -16,6 +16,8 @@ with a built-in node type, every declared parameter used and every ``$name`` dec
 substitutes the arguments of a use into a body (:func:`_substitute`); :class:`SubtreeExpansion`
 turns a use into nodes, with the recursion check and the use's position in its errors, as part
 of the tree builder of :mod:`tactile_bt.tree.loader`.
+
+Layer: tree.
 """
 
 from __future__ import annotations

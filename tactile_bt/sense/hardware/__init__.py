@@ -10,6 +10,8 @@ Public names (imported lazily, so ``import tactile_bt.sense.hardware`` stays che
 
 Raw counts only: converting counts to newtons is :mod:`tactile_bt.sense.calibration`'s job.
 See ``docs/hardware.md`` for the protocol subset, connecting a sensor and the file format.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

@@ -7,6 +7,8 @@ tactile_bt.sense.hardware.cli sensor ...`` runs the same commands stand-alone.
 Bad input ends a command with one line ``error: ...`` naming the option or file, before any
 port is opened or file written: argparse rejects bad numbers (``type=`` validators of
 :mod:`tactile_bt.sense.hardware.options`), the commands check files, shapes and the output.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

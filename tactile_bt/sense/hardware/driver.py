@@ -4,6 +4,8 @@ A reader thread reads the port as fast as bytes arrive, parses them with the res
 :class:`~tactile_bt.sense.hardware.protocol.DatagramParser`, and publishes every complete frame
 twice: as the newest frame (what a control loop wants, :meth:`SerialTactileSensor.read`) and
 into a bounded arrival-order queue (what a recorder wants, :meth:`SerialTactileSensor.frames`).
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

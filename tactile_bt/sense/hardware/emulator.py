@@ -11,6 +11,8 @@ logged in :attr:`DeviceEmulator.log`, so tests can check the driver's frames and
 against the ground truth.  The faults, the damage they do and the log are
 :mod:`tactile_bt.sense.hardware.faults` (re-exported here), which also says how the ground truth is
 kept exact.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

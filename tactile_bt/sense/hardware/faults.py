@@ -19,6 +19,8 @@ would drop as an overlap together with the damaged frames inside it): when the n
 would complete it with a zero XOR, one filler byte of garbage goes first.  So every damaged
 frame costs the parser exactly one checksum error, as long as the host keeps reading (a line
 stalled for 0.5 s tears frames wherever it stops).
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

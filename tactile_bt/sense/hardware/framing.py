@@ -11,6 +11,8 @@ Framing (see ``docs/hardware.md`` for the byte tables)::
 
 ``xor`` is the XOR of every byte before it, header included, so the XOR over a whole valid
 datagram is zero (:func:`checksum`).
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

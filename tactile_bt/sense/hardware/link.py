@@ -1,6 +1,9 @@
 """A simulated pad behind a real serial link: each frame goes through the device emulator, a
 pseudo-terminal and :class:`~tactile_bt.sense.hardware.driver.SerialTactileSensor`, byte for byte as a
-real module's frames would come (``run_mission(..., via_emulator=True)``)."""
+real module's frames would come (``run_mission(..., via_emulator=True)``).
+
+Layer: sense (the serial sensor).
+"""
 
 from __future__ import annotations
 

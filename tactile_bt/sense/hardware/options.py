@@ -1,6 +1,8 @@
 """Command-line checks of the sensor commands: device frame rates and fault specifications.
 
 The generic checks (numbers, output files, warnings) are in :mod:`tactile_bt.arguments`.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

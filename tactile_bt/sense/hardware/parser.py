@@ -6,6 +6,8 @@ direction: feed it arbitrary chunks of bytes, it returns the valid datagrams
 throw away (:class:`ParserStats`).  :class:`CommandParser` is the host-to-device counterpart the
 emulator uses (it returns :class:`Command` objects).  The framing is described in
 :mod:`tactile_bt.sense.hardware.framing`; :mod:`tactile_bt.sense.hardware.protocol` re-exports this module.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

@@ -18,6 +18,8 @@ wire constants and :func:`checksum` (:mod:`tactile_bt.sense.hardware.framing`) a
 parser for the device-to-host direction (feed it arbitrary chunks of bytes, it returns the valid
 datagrams and counts what it had to throw away), and :class:`CommandParser`, the host-to-device
 counterpart the emulator uses.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

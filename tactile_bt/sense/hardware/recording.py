@@ -13,6 +13,8 @@ flush, never a blob at the end: a recorder killed at any moment (even SIGKILL) l
 whose complete chunks all read back; only the torn last chunk is lost.  Readers tolerate a
 torn tail (:func:`replay` warns about it with a :class:`RecordingWarning`) and raise
 :class:`RecordingError` naming the file and byte offset on corruption.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

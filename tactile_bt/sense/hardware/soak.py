@@ -4,6 +4,8 @@ Run ``python -m tactile_bt.sense.hardware.soak --seconds 10 --rate 1900``: a cle
 must arrive intact) and a faulted phase (every undamaged frame must arrive, every damaged one
 must be dropped, and the driver's counters must match what the emulator injected).  Exit code
 0 when both phases pass.
+
+Layer: sense (the serial sensor).
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 Every class takes typed keyword parameters with defaults, units in their names (``target_pa``,
 ``speed_mps``, ``grace_s``); the YAML node types below map to these classes, so a tree built in
 Python and one loaded from YAML are the same objects.
+
+Layer: tree.
 """
 
 from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour

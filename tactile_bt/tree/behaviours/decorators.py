@@ -4,6 +4,8 @@ They are py_trees' own :mod:`py_trees.decorators` (``Retry``, ``Repeat``, ``Inve
 ``OneShot``) with the child first and keyword parameters that carry types and defaults, so the
 loader can check them like the leaves. None of them reads wall time; for a time limit use
 :class:`~tactile_bt.tree.behaviours.guards.MissionTimeout` (mission clock).
+
+Layer: tree.
 """
 
 from __future__ import annotations

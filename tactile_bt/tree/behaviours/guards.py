@@ -2,6 +2,8 @@
 
 py_trees' own ``Timeout`` decorator reads wall time, which would make simulated missions depend
 on the speed of the machine; :class:`MissionTimeout` reads the ``/tactile/time`` key instead.
+
+Layer: tree.
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""Leaves that move the pad without closing a tactile loop: ``approach`` and ``guided_slide``."""
+"""Leaves that move the pad without closing a tactile loop: ``approach`` and ``guided_slide``.
+
+Layer: tree.
+"""
 
 from __future__ import annotations
 

@@ -8,6 +8,8 @@ or turns. ``stripe_end`` succeeds (or fails, for the steps between stripes) when
 reached the end of the surface: the contact point stalls or jumps, the contact shrinks at an
 edge, the pad tilts past a limit or turns over an edge. ``coverage_stalled`` succeeds when the
 contact cloud has stopped growing. All of them read the mission clock, never wall time.
+
+Layer: tree.
 """
 
 from __future__ import annotations

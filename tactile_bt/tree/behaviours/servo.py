@@ -1,5 +1,8 @@
 """Servo primitives of the paper (Sec. IV–V): each one PID loop on some feature components
-mapped through its rows of the inverse task Jacobian. All share :class:`ServoLeaf`."""
+mapped through its rows of the inverse task Jacobian. All share :class:`ServoLeaf`.
+
+Layer: tree.
+"""
 
 from __future__ import annotations
 
