@@ -45,6 +45,9 @@ CENTRE_KP: float = 4.0
 CENTRE_KI: float = 0.0
 CENTRE_KD: float = 0.0
 CENTRE_LIMIT_MPS: float = 0.03
+#: Convergence band of a COP error component (m): 0.5 mm, a tenth of the paper's tactel. In
+#: metres, so it does not change with the scene's pitch (``band: 0.1 px`` gives a tenth of its).
+COP_BAND_M: float = 0.5e-3
 #: COP by rolling: the position command of the rolling rows (m/s per m), turned into rad/s by
 #: dividing by ROLL_RADIUS_M (the inverse task Jacobian's rolling rows).
 ROLL_KP: float = 1.0

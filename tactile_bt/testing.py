@@ -33,6 +33,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.errors import UnknownNodeError
 from tactile_bt import defaults
+from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.blackboard import cycle_writer
 from tactile_bt.contacts.cloud import ContactCloud
 from tactile_bt.sense.calibration import TactelCalibration
@@ -51,23 +52,39 @@ __all__ = [
 ]
 
 
+def _pad_and_shape(shape, pad: PadGeometry | None) -> tuple[PadGeometry, tuple[int, int]]:
+    """The pad of a fake frame: ``pad``, or the default pitch with ``shape`` (default 16 x 16)."""
+    if pad is None:
+        pad = PadGeometry() if shape is None else PadGeometry(*shape)
+    elif shape is not None and tuple(shape) != pad.shape:
+        raise ValueError(f"shape {tuple(shape)} differs from the pad's {pad.shape}: give one")
+    return pad, pad.shape
+
+
 def make_features(
-    cop_px=(7.5, 7.5),
+    cop_px=None,
     pressure: float = defaults.TARGET_PRESSURE_PA,
     orientation: float = np.pi / 2,
     area: int = 40,
     in_contact: bool = True,
-    shape=(defaults.ROWS, defaults.COLS),
+    shape=None,
+    pad: PadGeometry | None = None,
 ) -> ContactFeatures:
-    """Features of a fake contact: COP in tactels ``[x, y]``, pressure in Pa, orientation in rad.
+    """Features of a fake contact: COP in tactels ``[x, y]`` (default: the pad centre),
+    pressure in Pa, orientation in rad, on ``pad`` (default: the paper's 5 mm pitch with
+    ``shape`` tactels, 16 x 16 without one). The force is ``pressure`` times ``area`` tactels of
+    the pad.
 
     ``in_contact=False`` gives the features of an empty frame.
     """
+    pad, shape = _pad_and_shape(shape, pad)
     if not in_contact:
-        return ContactFeatures.no_contact(shape)
+        return ContactFeatures.no_contact(shape, pad=pad)
+    if cop_px is None:
+        cop_px = pad.centre_px
     mask = np.zeros(shape, dtype=bool)
     mask.flat[:area] = True
-    force = pressure * area * defaults.TACTEL_AREA_M2
+    force = pressure * area * pad.tactel_area_m2
     return ContactFeatures(
         in_contact=True,
         force=float(force),
@@ -78,40 +95,49 @@ def make_features(
         method="moments",
         mask=mask,
         invalid_tactels=0,
+        pad=pad,
     )
 
 
 def contact_frame(
-    cop_px=(7.5, 7.5),
+    cop_px=None,
     force_n: float = 2.0,
     orientation_rad: float = np.pi / 2,
     length_px: float = 6.0,
     width_px: float = 2.0,
-    shape=(defaults.ROWS, defaults.COLS),
+    shape=None,
+    pad: PadGeometry | None = None,
 ) -> np.ndarray:
     """Force image (N per tactel, ``(rows, cols)``) of a contact centred at ``cop_px``
-    (``[x, y]`` in tactels, pad centre (7.5, 7.5)) carrying ``force_n`` newtons.
+    (``[x, y]`` in tactels; default the pad centre, (7.5, 7.5) on a 16 x 16 pad) carrying
+    ``force_n`` newtons, on ``pad`` (default: 16 x 16, or ``shape``).
 
     ``length_px > 0`` gives a line contact (an edge, a pen, a cable) along ``orientation_rad``
     (from +x towards +y) with a cross profile ``width_px`` wide; ``length_px = 0`` a round
     contact of that width. Extraction sees a little less force (1–3 %): the binarisation
-    threshold cuts the contact's rim. The defaults cover 36 tactels: 2 N is then about 2.2 kPa. Built
-    with :mod:`tactile_bt.perception.synthetic`.
+    threshold cuts the contact's rim. The defaults cover 36 tactels: 2 N is then about 2.2 kPa on
+    5 mm tactels. Built with :mod:`tactile_bt.perception.synthetic`.
     """
     from tactile_bt.perception.synthetic import blob_contact, line_contact
 
+    pad, shape = _pad_and_shape(shape, pad)
+    if cop_px is None:
+        cop_px = pad.centre_px
     if length_px > 0:
         return line_contact(cop_px, orientation_rad, length_px, width_px, force_n, shape=tuple(shape))
     return blob_contact(cop_px, width_px, force_n, shape=tuple(shape))
 
 
 def raw_frame(force_image, calibration: TactelCalibration | None = None, noise_counts: float = 0.0,
-              rng: np.random.Generator | None = None) -> np.ndarray:
+              rng: np.random.Generator | None = None, pad: PadGeometry | None = None) -> np.ndarray:
     """Raw 12-bit counts (integers, as the sensor sends them) of a force image, through
-    ``calibration`` (nominal tactels by default), with optional Gaussian noise in counts."""
+    ``calibration`` (nominal tactels of ``pad`` by default: the default pitch, the image's
+    shape), with optional Gaussian noise in counts."""
     image = np.asarray(force_image, dtype=float)
-    cal = calibration if calibration is not None else TactelCalibration.nominal(*image.shape)
-    raw = cal.raw_from_force(image)
+    if calibration is None:
+        pad, _ = _pad_and_shape(image.shape, pad)
+        calibration = TactelCalibration.nominal(pad=pad)
+    raw = calibration.raw_from_force(image)
     if noise_counts > 0:
         raw = raw + (rng if rng is not None else np.random.default_rng(0)).normal(0.0, noise_counts, image.shape)
     return np.clip(np.rint(raw), 0, defaults.ADC_MAX).astype(np.uint16)
@@ -135,12 +161,16 @@ class FramePerception:
         Orientation method (None: orientation NaN, as when no running leaf needs it).
     smoothing : int
         Samples of the moving average (paper: 10).
+    pad : PadGeometry, optional
+        The pad the frames come from (its pitch gives pressure and metric COP). Default: the
+        paper's 5 mm pitch with the frames' shape.
     """
 
     def __init__(self, calibration: TactelCalibration | None = None,
                  threshold: float = defaults.CONTACT_THRESHOLD_N, method: str | None = "moments",
-                 smoothing: int = defaults.SMOOTHING_SAMPLES) -> None:
-        self.calibration = calibration if calibration is not None else TactelCalibration.nominal()
+                 smoothing: int = defaults.SMOOTHING_SAMPLES, pad: PadGeometry | None = None) -> None:
+        self.pad = pad
+        self.calibration = calibration if calibration is not None else TactelCalibration.nominal(pad=pad)
         self.threshold = float(threshold)
         self.method = method
         self.smoother = FeatureSmoother(smoothing)
@@ -153,7 +183,7 @@ class FramePerception:
         if (force is None) == (raw is None):
             raise ValueError("give either a force image (force=) or raw counts (raw=)")
         image = self.calibration.force_from_raw(raw) if raw is not None else np.asarray(force, dtype=float)
-        f_raw = extract(image, self.threshold, self.method)
+        f_raw = extract(image, self.threshold, self.method, pad=self.pad)
         return f_raw, self.smoother(f_raw)
 
 
@@ -174,25 +204,31 @@ class LeafHarness:
     pose : (4, 4) array, optional
         ``T_gs`` of the pad (default identity).
     perception : FramePerception, optional
-        Used for ``tick(frame=...)`` and ``tick(raw=...)`` (default: nominal calibration,
-        moments, 10-sample smoothing).
+        Used for ``tick(frame=...)`` and ``tick(raw=...)`` (default: nominal calibration of
+        ``pad``, moments, 10-sample smoothing).
+    pad : PadGeometry, optional
+        The pad of the mission, on the blackboard (``/tactile/pad``) for the leaves: it sets the
+        unit of their logged COP errors (tactels), their blackboard references in tactels, and
+        the default features and frames. Default ``PadGeometry()`` (16 x 16 at 5 mm).
     """
 
     def __init__(self, behaviour: py_trees.behaviour.Behaviour, dt: float = 1.0 / defaults.RATE_HZ,
                  features: ContactFeatures | None = None, pose: np.ndarray | None = None,
-                 perception: FramePerception | None = None) -> None:
+                 perception: FramePerception | None = None, pad: PadGeometry | None = None) -> None:
         tree = behaviour if isinstance(behaviour, py_trees.trees.BehaviourTree) else None
         #: The tree under test, when a BehaviourTree was given.
         self.tree = tree
         self.behaviour = tree.root if tree is not None else behaviour
         self.dt = float(dt)
         self.time = 0.0
+        #: The pad on the blackboard.
+        self.pad = PadGeometry() if pad is None else pad
         self.command = ServoCommand(np.inf, np.inf)
         self.contacts = ContactCloud()
         self._perception = perception
-        self._writer = cycle_writer("harness", self.command, self.contacts, self.dt, pose)
+        self._writer = cycle_writer("harness", self.command, self.contacts, self.dt, pose, pad=self.pad)
         self._extra: py_trees.blackboard.Client | None = None
-        self.set_features(features if features is not None else make_features())
+        self.set_features(features if features is not None else make_features(pad=self.pad))
         if tree is not None:
             tree.setup()
         else:
@@ -204,7 +240,7 @@ class LeafHarness:
     def perception(self) -> FramePerception:
         """The frame pipeline of ``tick(frame=...)`` / ``tick(raw=...)`` (created on first use)."""
         if self._perception is None:
-            self._perception = FramePerception()
+            self._perception = FramePerception(pad=self.pad)
         return self._perception
 
     def set_features(self, features: ContactFeatures, raw: ContactFeatures | None = None) -> None:

@@ -17,6 +17,7 @@ from tactile_bt.perception import features
 from tactile_bt.perception.features import ContactFeatures, extract, wrap_half_pi
 from tactile_bt.perception.baseline import extract_with_regionprops
 from tactile_bt.perception.synthetic import add_spurious_blob, blob_contact, line_contact, sensor_effects
+from tactile_bt.sense.geometry import PadGeometry
 
 PAD = (defaults.ROWS, defaults.COLS)
 
@@ -60,9 +61,23 @@ def test_pressure_is_force_over_region_area():
     assert_allclose(f.pressure, f.force / (f.area * defaults.PITCH_M**2), rtol=1e-12)
     assert 25 <= f.area <= 60  # a realistic ~40-tactel contact
     # a custom pitch changes pressure and metric COP, not the tactel features
-    g = extract(img, pitch=0.01)
+    g = extract(img, pad=PadGeometry(16, 16, 0.01))
     assert_allclose(g.pressure, f.pressure / 4.0, rtol=1e-12)
     assert_allclose(g.cop, 2.0 * f.cop, rtol=1e-12)
+    assert g.pad.pitch == 0.01 and f.pad == PadGeometry()
+
+
+@pytest.mark.parametrize("pad", [PadGeometry(12, 16), PadGeometry(16, 12), PadGeometry(8, 8, 0.005)])
+def test_a_pad_of_another_shape_than_the_image_is_an_error(pad):
+    with pytest.raises(ValueError, match=r"16x16 tactels, the pad"):
+        extract(np.zeros(PAD), pad=pad)
+    with pytest.raises(ValueError, match="the pad"):
+        extract_with_regionprops(np.zeros(PAD), pad=pad)
+
+
+def test_a_pitch_in_place_of_the_pad_is_an_error():
+    with pytest.raises(TypeError, match="PadGeometry"):
+        extract(np.zeros(PAD), 0.008, "moments", 0.005)
 
 
 @pytest.mark.parametrize("centre", [(7.5, 7.5), (3.25, 10.6), (11.9, 4.1), (6.0, 6.0)])
@@ -88,6 +103,10 @@ def test_cop_metres_on_a_non_square_pad():
     img[0, 5] = 1.0
     f = extract(img)
     assert_allclose(f.cop, [(5 - 2.5) * defaults.PITCH_M, (0 - 1.5) * defaults.PITCH_M])
+    assert f.pad == PadGeometry(4, 6)  # without a pad: the default pitch, the image's shape
+    g = extract(img, pad=PadGeometry(4, 6, 0.004))
+    assert_allclose(g.cop, [(5 - 2.5) * 0.004, (0 - 1.5) * 0.004])
+    assert_allclose(g.cop, g.pad.px_to_m(g.cop_px))
 
 
 def test_spurious_blob_is_ignored():

@@ -139,7 +139,8 @@ def bench_mission(duration: float = 20.0, ideal: bool = False) -> dict:
     # Where the time goes: the same loop, timed per stage.
     scene = load_scene(SCENE, overrides)
     world = scene.build_world(np.random.default_rng(0))
-    loop = ControlLoop(_cable_tree(ideal), world.calibration, 1.0 / scene.rate_hz, profile=True)
+    loop = ControlLoop(_cable_tree(ideal), world.calibration, 1.0 / scene.rate_hz, profile=True,
+                       pad=scene.sensor.geometry)
     stages = np.zeros(3)
     n = int(min(duration, 10.0) * scene.rate_hz)
     for k in range(n):

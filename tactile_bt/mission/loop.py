@@ -46,14 +46,20 @@ class ControlLoop:
     profile : bool
         Accumulate the time spent per stage in :attr:`stage_times`.
     pad : PadGeometry, optional
-        The pad the frames come from (default: the paper's 16×16 pad with 5 mm pitch).
+        The pad the frames come from: feature extraction converts with it and the leaves find
+        it on the blackboard (``/tactile/pad``). Default: the paper's 5 mm pitch, the
+        calibration's shape. Its shape must be the calibration's (ValueError otherwise).
     """
 
     def __init__(self, tree, calibration, dt: float, orientation_method: str = "moments",
                  threshold: float = defaults.CONTACT_THRESHOLD_N, profile: bool = False,
                  pad: PadGeometry | None = None) -> None:
         self.tree = tree
-        self.pad = PadGeometry() if pad is None else pad
+        shape = tuple(calibration.shape)
+        self.pad = PadGeometry(*shape) if pad is None else pad
+        if self.pad.shape != shape:
+            raise ValueError(f"the calibration covers {shape[0]}x{shape[1]} tactels, the pad "
+                             f"{self.pad.rows}x{self.pad.cols}")
         self.calibration = calibration
         self.dt = float(dt)
         self.orientation_method = orientation_method
@@ -82,7 +88,7 @@ class ControlLoop:
         # Orientation only when a running leaf uses it (a leaf starting this tick sees NaN once).
         needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
         f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None,
-                        pitch=self.pad.pitch)
+                        pad=self.pad)
         f = self.smoother(f_raw)
         if clock:
             t1 = clock()

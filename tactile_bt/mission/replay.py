@@ -49,7 +49,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     """
     from tactile_bt.sense.hardware.recording import read_recording, torn_tail_message
     from tactile_bt.errors import RecordingError, RecordingWarning
-    from tactile_bt.tree.loader import load_tree
+    from tactile_bt.tree.loader import LoadedTree, load_tree
     from tactile_bt.mission.log import MissionLog
     from tactile_bt.mission.loop import ControlLoop, root_outcome
     from tactile_bt.mission.result import finish_mission
@@ -57,8 +57,6 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
 
     if speed is not None and not (math.isfinite(speed) and speed > 0):
         raise ReplayError(f"speed must be a finite number > 0 or None, got {speed}")
-    if not isinstance(tree, py_trees.trees.BehaviourTree):
-        tree = load_tree(tree)
     if out is not None:  # before the replay: a path that cannot be written loses nothing
         from tactile_bt.mission.outputs import prepare_output_dir
 
@@ -68,6 +66,16 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     if n == 0:
         torn = "" if rec.torn_tail_offset is None else f" (the chunk at byte {rec.torn_tail_offset} is torn)"
         raise RecordingError(f"{recording}: the recording holds no complete chunk{torn}")
+    # The pad: its shape from the frames, its pitch from a mission recording (else the default).
+    pitch = rec.metadata.get("pitch_m")
+    try:
+        pad = PadGeometry(rec.rows, rec.cols) if pitch is None else PadGeometry(rec.rows, rec.cols, float(pitch))
+    except (TypeError, ValueError) as exc:
+        raise RecordingError(f"{recording}: metadata pitch_m {pitch!r} does not describe a pad: {exc}") from None
+    if not isinstance(tree, py_trees.trees.BehaviourTree):
+        tree = load_tree(tree, pad=pad)  # lengths in tactels: of the recorded pad
+    elif isinstance(tree, LoadedTree):
+        tree.check_pad(pad, f"the pad of recording {recording}")
     notes = []
     if rec.torn_tail_offset is not None:
         notes.append(torn_tail_message(recording, rec.torn_tail_offset, n))
@@ -77,7 +85,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         if not source.exists():
             notes.append(f"{source} is missing: using the nominal tactel characteristic "
                          f"(--calibration FILE chooses one)")
-            calibration = TactelCalibration.nominal(*rec.values.shape[1:])
+            calibration = TactelCalibration.nominal(pad=pad)
     if not isinstance(calibration, TactelCalibration):
         try:
             calibration = TactelCalibration.load(source)
@@ -94,8 +102,6 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         dt = 1.0 / float(rec.metadata["rate_hz"])
     else:
         dt = float(np.median(np.diff(t))) if n > 1 else 1.0 / defaults.RATE_HZ
-    # The pad: its shape from the frames, its pitch from a mission recording (else the default).
-    pad = PadGeometry(rec.rows, rec.cols, float(rec.metadata.get("pitch_m", defaults.PITCH_M)))
     loop = ControlLoop(tree, calibration, dt, orientation_method, pad=pad)
     log = MissionLog(n)
     status, reason, wall_start = "completed", "", time.perf_counter()

@@ -35,15 +35,21 @@ def calibration_path(recording: str | Path) -> Path:
 
 
 def _resolve(tree, scene, overrides, params=None, blackboard=None):
-    from tactile_bt.tree.loader import load_tree
+    """The tree and scene of a mission: a tree file is loaded with the scene's pad, which
+    converts its lengths in tactels (``band: 0.5 px``)."""
+    from tactile_bt.tree.loader import LoadedTree, load_tree
     from tactile_bt.sim.scene import Scene, load_scene
 
-    if not isinstance(tree, py_trees.trees.BehaviourTree):
-        tree = load_tree(tree, params=params, blackboard=blackboard)
-    elif params or blackboard:
+    is_tree = isinstance(tree, py_trees.trees.BehaviourTree)
+    if is_tree and (params or blackboard):
         raise ValueError("params and blackboard apply to a tree file; set them on a BehaviourTree in Python")
     if not isinstance(scene, Scene):
         scene = load_scene(scene, list(overrides or ()))
+    pad = scene.sensor.geometry
+    if not is_tree:
+        tree = load_tree(tree, params=params, blackboard=blackboard, pad=pad)
+    elif isinstance(tree, LoadedTree):
+        tree.check_pad(pad, f"the pad of scene {scene.file} (scene.sensor.geometry)")
     return tree, scene
 
 
@@ -69,6 +75,10 @@ def run_mission(
     Parameters
     ----------
     tree : BehaviourTree or path to a YAML tree
+        A tree file is loaded with the scene's pad (``scene.sensor.geometry``): its lengths in
+        tactels (``band: 0.5 px``) use the scene's pitch. A tree from
+        :func:`~tactile_bt.tree.loader.load_tree` whose tactels were converted with another
+        pitch is an error (:class:`~tactile_bt.errors.TreeError`).
     scene : Scene or path to a YAML scene
     duration : float, optional
         Mission time (s); defaults to the scene's ``duration_s``. The mission also ends when
@@ -120,7 +130,8 @@ def run_mission(
 
         prepare_output_dir(out)
 
-    loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=scene.sensor.geometry)
+    pad = scene.sensor.geometry
+    loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
     contacts = loop.contacts
 
     log = MissionLog(n_cycles)
@@ -135,14 +146,14 @@ def run_mission(
     if via_emulator:
         from tactile_bt.sense.hardware.link import EmulatedSensorLink
 
-        link = stack.enter_context(EmulatedSensorLink(scene.sensor.rows, scene.sensor.cols))
+        link = stack.enter_context(EmulatedSensorLink(pad.rows, pad.cols))
     if record is not None:
         from tactile_bt.sense.hardware.recording import Recorder
 
         world.calibration.save(calibration_path(record))
-        recorder = stack.enter_context(Recorder(record, scene.sensor.rows, scene.sensor.cols,
+        recorder = stack.enter_context(Recorder(record, pad.rows, pad.cols,
                                                 metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
-                                                          "pitch_m": scene.sensor.pitch}))
+                                                          "pitch_m": pad.pitch}))
     wall_start = time.perf_counter()
     try:
         for k in range(n_cycles):

@@ -149,12 +149,12 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
             shown = path - 0.003 * log["rotation"][:, :, 2]
         plotter.add_mesh(pv.lines_from_points(shown[:: max(1, len(shown) // 2000)]), color="#d62728",
                          line_width=3 if scan else 2, label="pad centre")
-        # The pad (80 mm square) at its last pose, for scale.
+        # The pad at its last pose, for scale.
         last = np.eye(4)
         last[:3, :3] = log["rotation"][-1]
         last[:3, 3] = path[-1]
-        half = np.array([scene.sensor.cols, scene.sensor.rows]) * scene.sensor.pitch / 2
-        pad = pv.Plane(center=(0, 0, 0), i_size=2 * half[0], j_size=2 * half[1]).transform(last, inplace=False)
+        width, height = scene.sensor.geometry.size_m
+        pad = pv.Plane(center=(0, 0, 0), i_size=width, j_size=height).transform(last, inplace=False)
         plotter.add_mesh(pad, color="#607080" if scan else "#f0a020", opacity=0.45, label="pad (end)")
     surface_file = out / "surface.ply"
     if surface_file.exists():

@@ -19,6 +19,7 @@ from skimage.measure import label, regionprops
 
 from tactile_bt import defaults
 from tactile_bt.perception.features import MIN_ANISOTROPY, ContactFeatures
+from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["extract_with_regionprops"]
 
@@ -26,7 +27,7 @@ __all__ = ["extract_with_regionprops"]
 def extract_with_regionprops(
     image,
     threshold: float = defaults.CONTACT_THRESHOLD_N,
-    pitch: float = defaults.PITCH_M,
+    pad: PadGeometry | None = None,
     min_anisotropy: float = MIN_ANISOTROPY,
 ) -> ContactFeatures:
     """Contact features by ``skimage.measure.label`` + ``regionprops`` (reference, slow).
@@ -37,8 +38,9 @@ def extract_with_regionprops(
         ``(rows, cols)`` force image in N per tactel (x = column, y = row).
     threshold : float
         Binarisation threshold in N per tactel (strictly greater is in contact).
-    pitch : float
-        Tactel pitch in m.
+    pad : PadGeometry, optional
+        The pad the image comes from, of the image's shape (default: the paper's 5 mm pitch,
+        the image's shape), as in ``extract``.
     min_anisotropy : float
         Minimum covariance anisotropy for a defined orientation (as in ``extract``).
 
@@ -50,17 +52,21 @@ def extract_with_regionprops(
     img = np.array(image, dtype=float)
     if img.ndim != 2:
         raise ValueError(f"need a 2-D (rows, cols) force image, got ndim={img.ndim}")
+    if pad is None:
+        pad = PadGeometry(*img.shape)
+    elif pad.shape != img.shape:
+        raise ValueError(f"the image has {img.shape[0]}x{img.shape[1]} tactels, the pad {pad.rows}x{pad.cols}")
     bad = ~np.isfinite(img) | (img < 0)
     n_bad = int(bad.sum())
     img[bad] = 0.0
     labels = label(img > threshold, connectivity=2)
     regions = regionprops(labels, intensity_image=img)
     if not regions:
-        return ContactFeatures.no_contact(img.shape, n_bad, "moments", pitch)
+        return ContactFeatures.no_contact(img.shape, n_bad, "moments", pad)
     region = max(regions, key=lambda r: (r.area, float(r.image_intensity[r.image].sum())))
     force = float(region.image_intensity[region.image].sum())
     if not force > 0:
-        return ContactFeatures.no_contact(img.shape, n_bad, "moments", pitch)
+        return ContactFeatures.no_contact(img.shape, n_bad, "moments", pad)
     row, col = region.centroid_weighted
     mu = region.moments_weighted_central  # mu[p, q]: row order p, column order q
     mu20, mu11, mu02 = mu[0, 2] / force, mu[1, 1] / force, mu[2, 0] / force
@@ -77,11 +83,11 @@ def extract_with_regionprops(
         in_contact=True,
         force=force,
         area=area,
-        pressure=force / (area * pitch**2),
+        pressure=force / (area * pad.pitch**2),
         cop_px=np.array([col, row]),
         orientation=angle,
         method="moments",
         mask=labels == region.label,
         invalid_tactels=n_bad,
-        pitch=pitch,
+        pad=pad,
     )

@@ -10,7 +10,8 @@ Pipeline of :func:`extract`:
 2. Binarise ``image > threshold`` (strictly greater) and label connected components with
    8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force).
 3. Force ``f = sum f_ij`` and the force-weighted centre of pressure over ``R`` (Eq. 1),
-   pressure ``p = f / (|R| pitch^2)`` in Pa (Eq. 2).
+   pressure ``p = f / (|R| pitch^2)`` in Pa (Eq. 2), with the pitch of the pad
+   (:class:`~tactile_bt.sense.geometry.PadGeometry`) the image comes from.
 4. Orientation of the major axis of ``R`` (optional): force-weighted image moments
    (``alpha = 0.5 atan2(2 mu11, mu20 - mu02)`` in (column, row) coordinates) or a grey-scale
    Hough transform of the region (:func:`hough_orientation`).
@@ -38,6 +39,7 @@ import numpy as np
 from scipy import ndimage
 
 from tactile_bt import defaults
+from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = [
     "ContactFeatures",
@@ -67,6 +69,16 @@ _HALF_PI = 0.5 * math.pi
 _HOUGH_THETA = np.deg2rad(np.arange(-90.0, 90.0, HOUGH_STEP_DEG))
 _EIGHT = np.ones((3, 3), dtype=bool)  # 8-connectivity structuring element
 _BASIS_CACHE: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, float]] = {}
+#: The pad of an image given without one: the paper's pitch, the image's shape.
+_DEFAULT_PAD = PadGeometry()
+
+
+@functools.lru_cache(maxsize=16)
+def _pad_of_shape(shape: tuple[int, int]) -> PadGeometry:
+    """The default pad (5 mm pitch) with ``shape`` tactels; the default pad for an empty shape."""
+    if shape == _DEFAULT_PAD.shape or min(shape) < 1:
+        return _DEFAULT_PAD
+    return PadGeometry(shape[0], shape[1])
 
 
 def wrap_half_pi(angle):
@@ -111,7 +123,7 @@ class ContactFeatures:
     area : int
         Number of tactels in R.
     pressure : float
-        ``force / (area * pitch**2)`` in Pa (Eq. 2); 0.0 without contact.
+        ``force / (area * pad.pitch**2)`` in Pa (Eq. 2); 0.0 without contact.
     cop_px : numpy.ndarray
         Shape (2,), centre of pressure ``[x, y] = [column, row]`` in tactel units, tactel
         centres at integers; ``[nan, nan]`` without contact.
@@ -124,8 +136,8 @@ class ContactFeatures:
         ``(rows, cols)`` bool, the region R.
     invalid_tactels : int
         Number of input tactels that were NaN, infinite or negative and were replaced by 0.
-    pitch : float
-        Tactel pitch in m used for ``pressure`` and ``cop``.
+    pad : PadGeometry
+        The pad the image came from: its pitch gives ``pressure``, its centre and pitch ``cop``.
     image : numpy.ndarray or None
         The (sanitised) force image the features came from, N per tactel; not copied.
     """
@@ -139,7 +151,7 @@ class ContactFeatures:
     method: str | None
     mask: np.ndarray
     invalid_tactels: int = 0
-    pitch: float = field(default=defaults.PITCH_M)
+    pad: PadGeometry = field(default=_DEFAULT_PAD)
     image: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -150,19 +162,26 @@ class ContactFeatures:
     @property
     def cop_xy(self) -> tuple[float, float]:
         """:attr:`cop` as two Python floats ``(x, y)`` in m (cheaper in per-cycle code)."""
-        rows, cols = self.mask.shape
         x, y = self.cop_px.tolist()
-        return ((x - (cols - 1) * 0.5) * self.pitch, (y - (rows - 1) * 0.5) * self.pitch)
+        return self.pad.xy_px_to_m(x, y)
 
     @classmethod
     def no_contact(
         cls,
-        shape: tuple[int, int] = (defaults.ROWS, defaults.COLS),
+        shape: tuple[int, int] | None = None,
         invalid_tactels: int = 0,
         method: str | None = None,
-        pitch: float = defaults.PITCH_M,
+        pad: PadGeometry | None = None,
     ) -> ContactFeatures:
-        """Features of a frame without contact: zero force, NaN COP and orientation."""
+        """Features of a frame without contact: zero force, NaN COP and orientation.
+
+        ``shape`` defaults to the pad's; without ``pad``, the default pad (5 mm pitch) of that
+        shape.
+        """
+        if pad is None:
+            pad = _DEFAULT_PAD if shape is None else _pad_of_shape(tuple(shape))
+        if shape is None:
+            shape = pad.shape
         return cls(
             in_contact=False,
             force=0.0,
@@ -173,7 +192,7 @@ class ContactFeatures:
             method=method,
             mask=np.zeros(shape, dtype=bool),
             invalid_tactels=int(invalid_tactels),
-            pitch=pitch,
+            pad=pad,
         )
 
 
@@ -264,7 +283,7 @@ def extract(
     image,
     threshold: float = defaults.CONTACT_THRESHOLD_N,
     method: str | None = "moments",
-    pitch: float = defaults.PITCH_M,
+    pad: PadGeometry | None = None,
     *,
     min_anisotropy: float = MIN_ANISOTROPY,
 ) -> ContactFeatures:
@@ -279,20 +298,25 @@ def extract(
         strictly greater than ``threshold``.
     method : {"moments", "hough", None}
         Orientation method; None skips the orientation (cheaper; orientation is NaN).
-    pitch : float
-        Tactel pitch in m.
+    pad : PadGeometry, optional
+        The pad the image comes from: its pitch converts tactels to metres (pressure, metric
+        COP). Its shape must be the image's. Default: the paper's 5 mm pitch, the image's shape
+        (``PadGeometry()`` for a 16×16 image).
     min_anisotropy : float
         Minimum covariance anisotropy ``(l1 - l2) / (l1 + l2)`` for a defined orientation.
 
     Returns
     -------
     ContactFeatures
-        Never contains NaN/inf force, pressure or (with contact) COP.
+        Never contains NaN/inf force, pressure or (with contact) COP; carries ``pad``.
 
     Raises
     ------
     ValueError
-        If ``image`` is not two-dimensional or ``method`` is unknown.
+        If ``image`` is not two-dimensional, ``method`` is unknown or ``pad`` has another shape
+        than ``image``.
+    TypeError
+        If ``pad`` is not a :class:`~tactile_bt.sense.geometry.PadGeometry` (e.g. a pitch).
     """
     img = np.asarray(image, dtype=float)
     if img.ndim != 2:
@@ -300,8 +324,16 @@ def extract(
     if method not in METHODS:
         raise ValueError(f"unknown orientation method {method!r}; use 'moments', 'hough' or None")
     shape = img.shape
+    if pad is None:
+        pad = _pad_of_shape(shape)
+    elif not isinstance(pad, PadGeometry):
+        raise TypeError(f"extract(): pad must be a PadGeometry(rows, cols, pitch), got {pad!r}")
+    elif pad.rows != shape[0] or pad.cols != shape[1]:
+        raise ValueError(f"extract(): the image has {shape[0]}x{shape[1]} tactels, the pad "
+                         f"{pad.rows}x{pad.cols}")
+    pitch = pad.pitch
     if img.size == 0:
-        return ContactFeatures.no_contact(shape, 0, method, pitch)
+        return ContactFeatures.no_contact(shape, 0, method, pad)
     basis, basis_cop, limit = _basis(shape)
     n_bad = 0
     # Fast validity test (False for NaN): every tactel finite, >= 0 and below the clip limit.
@@ -310,7 +342,7 @@ def extract(
     binary = img > threshold
     labels, n = ndimage.label(binary, _EIGHT)
     if n == 0:
-        return ContactFeatures.no_contact(shape, n_bad, method, pitch)
+        return ContactFeatures.no_contact(shape, n_bad, method, pad)
     if n == 1:
         mask = binary
     else:
@@ -327,7 +359,7 @@ def extract(
     m = ((img * mask).ravel() @ (basis_cop if method is None else basis)).tolist()
     f = m[0]
     if not (f > 0.0 and math.isfinite(f)):
-        return ContactFeatures.no_contact(shape, n_bad, method, pitch)
+        return ContactFeatures.no_contact(shape, n_bad, method, pad)
     area = int(np.count_nonzero(mask))
     # a convex combination of tactel centres; clip the last-ulp rounding back onto the pad
     cx = min(max(m[1] / f, 0.0), shape[1] - 1.0)
@@ -351,7 +383,7 @@ def extract(
         method=method,
         mask=mask,
         invalid_tactels=n_bad,
-        pitch=pitch,
+        pad=pad,
         image=img,
     )
 
@@ -386,9 +418,9 @@ def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np
     _, basis_cop, _ = _basis(features.mask.shape)  # columns [1, x, y] per tactel, row-major
     ux, uy = math.cos(alpha), math.sin(alpha)
     cx, cy = features.cop_px.tolist()
-    n_rows, n_cols = features.mask.shape
+    px, py = features.pad.centre_px
     # Position along the major axis, relative to where the axis passes closest to the centre.
-    centre_along = ((n_cols - 1) * 0.5 - cx) * ux + ((n_rows - 1) * 0.5 - cy) * uy
+    centre_along = (px - cx) * ux + (py - cy) * uy
     xs, ys = _grid_coordinates(features.mask.shape)
     along = xs * ux + ys * uy - (cx * ux + cy * uy + centre_along)
     window = 1.0 - np.abs(along) * (1.0 / window_px)

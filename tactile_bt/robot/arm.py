@@ -54,7 +54,8 @@ from tactile_bt.robot.equilibrium import (
     bracket_stiffness,
     point_wrench,
 )
-from tactile_bt.robot.kinematics import LWR4Kinematics, PAD_SIZE_M, Q_READY
+from tactile_bt.robot.kinematics import LWR4Kinematics, Q_READY
+from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = [
     "DEFAULT_STIFFNESS",
@@ -102,6 +103,10 @@ class CompliantArm(EquilibriumSolverMixin):
         Joint-torque residual (N m) at which the equilibrium solver stops.
     max_iter : int
         Newton iteration budget per step.
+    pad_radius : float, optional
+        Distance from the pad centre to its farthest point (m), for the per-iteration motion
+        cap: the half diagonal of the pad the world puts on the arm (default: that of the
+        default :class:`~tactile_bt.sense.geometry.PadGeometry`, 16 x 16 at 5 mm).
     """
 
     def __init__(
@@ -118,6 +123,7 @@ class CompliantArm(EquilibriumSolverMixin):
         max_step_m: float = 1e-3,
         tol: float = 1e-4,
         max_iter: int = 60,
+        pad_radius: float | None = None,
     ) -> None:
         self.kin = LWR4Kinematics() if kinematics is None else kinematics
         self.K = _per_joint(stiffness, "stiffness", positive=True)
@@ -137,7 +143,9 @@ class CompliantArm(EquilibriumSolverMixin):
         #: of a penalty contact (at 1e7 N/m a few newtons are a fraction of a micrometre).
         self.fd_step = (1e-8, 1e-8)
         #: Half diagonal of the pad (m), for the per-iteration motion cap.
-        self.pad_radius = float(np.sqrt(2.0)) * 0.5 * PAD_SIZE_M
+        self.pad_radius = PadGeometry().half_diagonal_m if pad_radius is None else float(pad_radius)
+        if not (np.isfinite(self.pad_radius) and self.pad_radius > 0):
+            raise ValueError(f"pad_radius must be a finite length > 0 m, got {pad_radius!r}")
         self._H: np.ndarray | None = None  # quasi-Newton matrix carried between solves
         self._H_Kd = np.zeros(7)
         self._kin_cache: tuple | None = None

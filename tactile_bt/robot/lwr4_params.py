@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from tactile_bt import defaults
 from tactile_bt.control.spatial import make_pose
 
 __all__ = [
@@ -51,7 +50,6 @@ __all__ = [
     "QD_MAX",
     "Q_READY",
     "DEFAULT_MOUNT_OFFSET_M",
-    "PAD_SIZE_M",
     "default_mount",
 ]
 
@@ -81,7 +79,7 @@ DEFAULT_MOUNT_OFFSET_M = 0.04
 def default_mount(offset: float = DEFAULT_MOUNT_OFFSET_M) -> np.ndarray:
     """Flange-to-sensor transform ``T_es`` of the default fingertip mount.
 
-    The 16x16 pad (80 x 80 mm at 5 mm pitch) is centred on the flange axis, ``offset`` metres
+    The pad (80 x 80 mm by default) is centred on the flange axis, ``offset`` metres
     out along the flange ``z_e``; its axes are parallel to the flange's (``x_s = x_e``,
     ``y_s = y_e``), so the sensing normal ``+z_s = +z_e`` points away from the flange, towards
     whatever the fingertip touches.
@@ -98,6 +96,3 @@ def default_mount(offset: float = DEFAULT_MOUNT_OFFSET_M) -> np.ndarray:
     """
     return make_pose(None, (0.0, 0.0, float(offset)))
 
-
-#: Side length of the pad in metres (16 tactels x 5 mm), for drawing.
-PAD_SIZE_M = defaults.COLS * defaults.PITCH_M

@@ -32,6 +32,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.errors import MountError
 from tactile_bt.control.spatial import integrate_spatial, make_pose
+from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_TYPES"]
 
@@ -69,9 +70,13 @@ class ArmMount:
         the ready posture.
     stiffness, damping : float
         Joint stiffness (N m/rad) and damping (N m s/rad).
+    pad : PadGeometry, optional
+        The pad on the flange (its half diagonal bounds the arm's equilibrium steps); default
+        ``PadGeometry()``.
     """
 
-    def __init__(self, pose: np.ndarray, base=None, stiffness: float = 200.0, damping: float = 0.2) -> None:
+    def __init__(self, pose: np.ndarray, base=None, stiffness: float = 200.0, damping: float = 0.2,
+                 pad: PadGeometry | None = None) -> None:
         from tactile_bt.robot.arm import CompliantArm
         from tactile_bt.robot.kinematics import Q_READY, LWR4Kinematics
 
@@ -84,7 +89,8 @@ class ArmMount:
         except ValueError as exc:
             raise MountError(f"mount: the arm cannot reach the start pose: {exc}") from None
         # tol: joint-torque residual of the contact solve, 1e-3 N m ≈ a few µm at the pad.
-        self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping, tol=1e-3)
+        self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping, tol=1e-3,
+                                pad_radius=(pad if pad is not None else PadGeometry()).half_diagonal_m)
 
     @property
     def pose(self) -> np.ndarray:
@@ -121,8 +127,9 @@ class MountSpec:
             raise ValueError(f"mount.type: unknown mount {self.type!r}; valid: {', '.join(MOUNT_TYPES)}")
         self.pose = make_pose(Rotation.from_euler("xyz", self.rpy_deg, degrees=True), self.position)
 
-    def build(self):
-        """A fresh mount at the start pose.
+    def build(self, pad: PadGeometry | None = None):
+        """A fresh mount at the start pose, carrying ``pad`` (the scene's pad geometry; default
+        ``PadGeometry()``).
 
         Raises
         ------
@@ -132,7 +139,7 @@ class MountSpec:
         """
         if self.type == "lwr4":
             try:
-                return ArmMount(self.pose, self.base, self.stiffness, self.damping)
+                return ArmMount(self.pose, self.base, self.stiffness, self.damping, pad)
             except MountError as exc:
                 raise self._unreachable(exc) from None
         return CartesianMount(self.pose)

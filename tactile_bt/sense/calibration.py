@@ -15,9 +15,10 @@ clipped at the *saturation raw value* ``raw_sat = min(ADC_MAX, offset + SPAN_FRA
 
 Nominal tactel (:meth:`TactelCalibration.nominal`): offset :data:`NOMINAL_OFFSET` = 100 counts,
 ``force_scale`` :data:`NOMINAL_FORCE_SCALE` = 0.25 N and a span chosen so that the ADC saturates
-at exactly :data:`NOMINAL_SATURATION_N` = 0.25 N per tactel (10 kPa on a 25 mm^2 tactel).  The
-slope at zero force is ~25 000 counts/N (1 count ~ 0.04 mN); at 0.1 N the response is 18 % below
-the tangent (the "linear-ish" range), at 0.25 N it is 37 % below.
+at :data:`NOMINAL_SATURATION_PA` = 10 kPa on one tactel of the pad
+(:class:`~tactile_bt.sense.geometry.PadGeometry`): :data:`NOMINAL_SATURATION_N` = 0.25 N per tactel
+on the paper's 25 mm^2 tactel.  There the slope at zero force is ~25 000 counts/N (1 count ~ 0.04 mN);
+at 0.1 N the response is 18 % below the tangent (the "linear-ish" range), at 0.25 N it is 37 % below.
 
 Layer: sense.
 """
@@ -30,11 +31,13 @@ import os
 import numpy as np
 
 from tactile_bt import defaults
+from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = [
     "TactelCalibration",
     "NOMINAL_OFFSET",
     "NOMINAL_FORCE_SCALE",
+    "NOMINAL_SATURATION_PA",
     "NOMINAL_SATURATION_N",
     "SPAN_FRACTION",
 ]
@@ -43,8 +46,12 @@ __all__ = [
 NOMINAL_OFFSET: float = 100.0
 #: Force scale of the nominal exponential characteristic in N.
 NOMINAL_FORCE_SCALE: float = 0.25
-#: Force per tactel in N at which a nominal tactel reaches ``ADC_MAX`` (10 kPa x 25 mm^2).
-NOMINAL_SATURATION_N: float = 10e3 * defaults.TACTEL_AREA_M2
+#: Pressure on a tactel in Pa at which a nominal tactel reaches ``ADC_MAX``.
+NOMINAL_SATURATION_PA: float = 10e3
+#: Force per tactel in N at which a nominal tactel of the default pad reaches ``ADC_MAX``
+#: (10 kPa x 25 mm^2); a pad of another pitch saturates at ``NOMINAL_SATURATION_PA`` times its
+#: tactel area.
+NOMINAL_SATURATION_N: float = NOMINAL_SATURATION_PA * PadGeometry().tactel_area_m2
 #: Fraction of the span above which the characteristic counts as saturated.
 SPAN_FRACTION: float = 0.999
 
@@ -101,21 +108,36 @@ class TactelCalibration:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def nominal(cls, rows: int = defaults.ROWS, cols: int = defaults.COLS) -> TactelCalibration:
-        """Identical tactels that saturate at ``NOMINAL_SATURATION_N`` (0.25 N) at ``ADC_MAX``."""
+    def nominal(cls, rows: int | None = None, cols: int | None = None, *,
+                pad: PadGeometry | None = None) -> TactelCalibration:
+        """Identical tactels that reach ``ADC_MAX`` at :data:`NOMINAL_SATURATION_PA` (10 kPa) times
+        the pad's tactel area (0.25 N on the default pad).
+
+        Parameters
+        ----------
+        rows, cols : int, optional
+            Array size of a pad with the default pitch (a shorthand for
+            ``pad=PadGeometry(rows, cols)``).
+        pad : PadGeometry, optional
+            The pad: its shape and tactel area (default: ``PadGeometry()``, 16 x 16 at 5 mm).
+        """
+        pad = _pad_of(rows, cols, pad)
+        saturation_n = NOMINAL_SATURATION_PA * pad.tactel_area_m2
         span = (defaults.ADC_MAX - NOMINAL_OFFSET) / (
-            1.0 - math.exp(-NOMINAL_SATURATION_N / NOMINAL_FORCE_SCALE)
+            1.0 - math.exp(-saturation_n / NOMINAL_FORCE_SCALE)
         )
-        ones = np.ones((rows, cols))
+        ones = np.ones(pad.shape)
         return cls(NOMINAL_OFFSET * ones, span * ones, NOMINAL_FORCE_SCALE * ones)
 
     @classmethod
     def random(
         cls,
         rng: np.random.Generator,
-        rows: int = defaults.ROWS,
-        cols: int = defaults.COLS,
+        rows: int | None = None,
+        cols: int | None = None,
         spread: float = 0.15,
+        *,
+        pad: PadGeometry | None = None,
     ) -> TactelCalibration:
         """Every tactel different: nominal parameters times ``exp(spread * N(0, 1))``.
 
@@ -123,14 +145,18 @@ class TactelCalibration:
         ----------
         rng : numpy.random.Generator
             Source of all random draws (same seed, same calibration).
-        rows, cols : int
-            Array size.
+        rows, cols : int, optional
+            Array size of a pad with the default pitch (shorthand for ``pad=``).
         spread : float
             Relative log-normal spread of offset, span and force scale (0 gives nominal).
+        pad : PadGeometry, optional
+            The pad (shape and tactel area of the nominal tactel); default ``PadGeometry()``.
         """
         if spread < 0:
             raise ValueError(f"spread must be >= 0, got {spread}")
-        nom = cls.nominal(rows, cols)
+        pad = _pad_of(rows, cols, pad)
+        rows, cols = pad.shape
+        nom = cls.nominal(pad=pad)
         factors = np.exp(spread * rng.standard_normal((3, rows, cols)))
         offset = np.minimum(nom.offset * factors[0], 0.5 * defaults.ADC_MAX)
         return cls(offset, nom.span * factors[1], nom.force_scale * factors[2])
@@ -218,3 +244,13 @@ class TactelCalibration:
             f"TactelCalibration(shape={self.shape}, offset~{self.offset.mean():.1f} counts, "
             f"saturation~{self._f_sat.mean():.3f} N)"
         )
+
+
+def _pad_of(rows: int | None, cols: int | None, pad: PadGeometry | None) -> PadGeometry:
+    """The pad of a calibration: ``pad``, or the default pad with ``rows`` x ``cols`` tactels."""
+    if pad is None:
+        default = PadGeometry()
+        return PadGeometry(default.rows if rows is None else rows, default.cols if cols is None else cols)
+    if (rows is not None and rows != pad.rows) or (cols is not None and cols != pad.cols):
+        raise ValueError(f"rows x cols {rows} x {cols} differ from the pad's {pad.rows} x {pad.cols}: give one")
+    return pad

@@ -38,7 +38,9 @@ from tactile_bt import defaults
 __all__ = ["CONTACT_REFERENCE_AREA_M2", "SimObject", "Table", "Cable", "polyline_from_segments", "object_pose"]
 
 #: Area (m²) over which an object's stiffness in N/m is spread to give a per-area stiffness:
-#: the paper's reference contact of 40 tactels.
+#: the paper's reference contact of 40 tactels of 25 mm², 1e-3 m². It defines the unit of the
+#: scenes' ``stiffness`` (N/m over this area), so it is a constant of the paper's pad and does
+#: not follow the scene's ``sensor.pitch``: the same object is as stiff under any pad.
 CONTACT_REFERENCE_AREA_M2 = 40 * defaults.TACTEL_AREA_M2
 
 

@@ -1,4 +1,5 @@
-"""Simulated 16×16 tactile pad: from the pad's pose among objects to a frame of raw counts.
+"""Simulated tactile pad (the scene's ``sensor:`` section; 16×16 tactels at 5 mm by default): from
+the pad's pose among objects to a frame of raw counts.
 
 Pipeline per frame (all in SI units):
 
@@ -46,7 +47,7 @@ class SensorParams:
     Attributes
     ----------
     rows, cols : int
-        Tactel grid (16 × 16).
+        Tactel grid (16 × 16 by default).
     pitch : float
         Tactel pitch (m).
     subsamples : int
@@ -69,9 +70,9 @@ class SensorParams:
         0.04 × target before smoothing, the paper's sensor noise level (``tests`` check it).
     """
 
-    rows: int = defaults.ROWS
-    cols: int = defaults.COLS
-    pitch: float = defaults.PITCH_M
+    rows: int = PadGeometry.rows
+    cols: int = PadGeometry.cols
+    pitch: float = PadGeometry.pitch
     subsamples: int = 3
     foam_stiffness: float = 2.0e7
     foam_spread: float = 0.7
@@ -102,26 +103,25 @@ class SensorModel:
 
     def __post_init__(self) -> None:
         p = self.params
+        pad = p.geometry
+        #: The pad's geometry: every tactel ↔ metre conversion of the model goes through it.
+        self.pad = pad
         if p.calibration_spread > 0:
-            self.calibration = TactelCalibration.random(self.rng, p.rows, p.cols, spread=p.calibration_spread)
+            self.calibration = TactelCalibration.random(self.rng, spread=p.calibration_spread, pad=pad)
         else:
-            self.calibration = TactelCalibration.nominal(p.rows, p.cols)
+            self.calibration = TactelCalibration.nominal(pad=pad)
         s = p.subsamples
-        # Tactel (r, c) centre at ((c - 7.5) p, (r - 7.5) p, 0) in the sensor frame, row-major.
-        rr, cc = np.meshgrid(np.arange(p.rows), np.arange(p.cols), indexing="ij")
-        self._centres = np.stack(
-            (((cc - (p.cols - 1) / 2) * p.pitch).ravel(), ((rr - (p.rows - 1) / 2) * p.pitch).ravel(), np.zeros(rr.size)),
-            axis=1,
-        )
-        o = ((np.arange(s) + 0.5) / s - 0.5) * p.pitch
+        # Tactel (r, c) centre at pad.px_to_m([c, r]) (z = 0) in the sensor frame, row-major.
+        rr, cc = np.meshgrid(np.arange(pad.rows), np.arange(pad.cols), indexing="ij")
+        xy = pad.px_to_m(np.stack((cc.ravel(), rr.ravel()), axis=1))
+        self._centres = np.column_stack((xy, np.zeros(rr.size)))
+        o = ((np.arange(s) + 0.5) / s - 0.5) * pad.pitch
         oy, ox = np.meshgrid(o, o, indexing="ij")
         self._offsets = np.stack((ox.ravel(), oy.ravel(), np.zeros(s * s)), axis=1)
         #: No point of a tactel is farther than this from its centre (m).
-        self._reach = p.pitch * np.sqrt(0.5)
-        self._corners = np.array(
-            [[sx * p.cols * p.pitch / 2, sy * p.rows * p.pitch / 2, 0.0] for sx in (-1, 1) for sy in (-1, 1)]
-        )
-        self.tactel_area = p.pitch * p.pitch
+        self._reach = pad.pitch * np.sqrt(0.5)
+        self._corners = pad.corners_m()
+        self.tactel_area = pad.tactel_area_m2
         self._broad = None
         self._broad_corners = None
         self._broad_objects = None
@@ -129,8 +129,8 @@ class SensorModel:
         self._last_samples: list = []
         self._spread_rows = self._spread_cols = None
         if p.foam_spread > 0:
-            self._spread_rows = _gaussian_band(p.rows, p.foam_spread)
-            self._spread_cols = _gaussian_band(p.cols, p.foam_spread)
+            self._spread_rows = _gaussian_band(pad.rows, p.foam_spread)
+            self._spread_cols = _gaussian_band(pad.cols, p.foam_spread)
 
     # ------------------------------------------------------------------------------------
     #: How far (m) the pad may move before the broad phase is redone.
@@ -208,17 +208,17 @@ class SensorModel:
         A broad phase (cached while the pad moves less than ``BROAD_PHASE_MARGIN``) keeps only
         the tactels that can touch each object; those are integrated over their sub-samples.
         """
-        p = self.params
+        shape = self.pad.shape
         samples = self._penetration(T_gs, objects)
         if not samples:
-            return np.zeros((p.rows, p.cols)), 0.0
-        force = np.zeros(p.rows * p.cols)
+            return np.zeros(shape), 0.0
+        force = np.zeros(self.pad.tactels)
         deepest = 0.0
         for near, _, depth, scale in samples:
             deepest = max(deepest, float(depth.max()))
             tactel = depth.reshape(near.size, -1).sum(axis=1) * scale
             force[near] = np.maximum(force[near], tactel)
-        return self.spread(force.reshape(p.rows, p.cols)), deepest
+        return self.spread(force.reshape(shape)), deepest
 
     def contact(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, np.ndarray]:
         """Contact wrench on the pad and its stiffness, for a compliant mount.

@@ -198,7 +198,7 @@ class Scene:
         Raises :class:`SceneError` naming the scene file when the arm cannot reach the start
         pose (a scene built in code rather than loaded, which checks it on load)."""
         try:
-            mount = self.mount.build()
+            mount = self.mount.build(self.sensor.geometry)
         except MountError as exc:
             raise SceneError(str(exc), self.file) from None
         world = World(self.objects, SensorModel(self.sensor, rng), mount)
@@ -376,7 +376,7 @@ def _check_start(root: Located, scene: Scene) -> None:
         return "" if loc.file == root.file else f" (scene {root.file})"
 
     try:
-        scene.mount.build()
+        scene.mount.build(scene.sensor.geometry)
     except MountError as exc:
         loc = located(exc.field, "position")
         raise loc.error(f"{exc}{in_scene(loc)}") from None

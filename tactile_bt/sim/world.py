@@ -28,7 +28,7 @@ class World:
         self.objects = list(objects)
         self.sensor = sensor
         self.mount = mount
-        self.last_force = np.zeros((sensor.params.rows, sensor.params.cols))
+        self.last_force = np.zeros(sensor.params.geometry.shape)
         self.last_penetration = 0.0
         # A compliant mount feels the contact: wrench and stiffness from the pad model.
         mount.attach(lambda T: sensor.contact(T, self.objects))

@@ -30,13 +30,17 @@ import numpy as np
 import py_trees
 from py_trees.common import Access
 
-__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "cycle_writer", "read", "write",
-           "write_cycle"]
+from tactile_bt.sense.geometry import PadGeometry
+
+__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "write",
+           "write_cycle", "current_pad"]
 
 NAMESPACE = "/tactile"
 KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts", "pad")
-FEATURES, FEATURES_RAW, TIME, POSE = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose"))
+FEATURES, FEATURES_RAW, TIME, POSE, PAD = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose",
+                                                                          "pad"))
 _STORAGE = py_trees.blackboard.Blackboard.storage
+_DEFAULT_PAD = PadGeometry()
 
 
 def read(key: str) -> Any:
@@ -57,9 +61,18 @@ def write_cycle(t: float, pose: np.ndarray, features_raw, features) -> None:
     _STORAGE[FEATURES] = features
 
 
-def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | None = None, pad=None):
+def current_pad() -> PadGeometry:
+    """The pad on the blackboard (:data:`PAD`), or the default ``PadGeometry()`` when none is
+    written (a leaf ticked outside a mission or a harness)."""
+    pad = _STORAGE.get(PAD)
+    return _DEFAULT_PAD if pad is None else pad
+
+
+def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | None = None,
+                 pad: PadGeometry | None = None):
     """A blackboard client that owns the ``/tactile`` keys, with the mission's constant objects
-    (cycle command, contact cloud, control period in s, pad geometry) and an initial pose written.
+    (cycle command, contact cloud, control period in s, pad geometry: ``pad``, default
+    ``PadGeometry()``) and an initial pose written.
 
     The mission loop and :class:`tactile_bt.testing.LeafHarness` both start from it.
     """
@@ -72,5 +85,5 @@ def cycle_writer(name: str, command, contacts, dt: float, pose: np.ndarray | Non
     writer.time = 0.0
     writer.pose = np.eye(4) if pose is None else np.asarray(pose, dtype=float)
     writer.features = writer.features_raw = None
-    writer.pad = pad
+    writer.pad = _DEFAULT_PAD if pad is None else pad
     return writer

@@ -34,6 +34,13 @@ node starts.
 ``tactile-bt run --param``) before the tree is built, with the same checks, and blackboard keys
 the tree reads (``"KEY=VALUE"``, as ``--blackboard``), written when the tree is set up.
 
+Lengths in tactels (``band: 0.5 px``) are converted to metres when the tree is loaded, with the
+pitch of ``load_tree(..., pad=...)`` (a :class:`~tactile_bt.sense.geometry.PadGeometry`; default
+``PadGeometry()``, 5 mm). :func:`~tactile_bt.mission.run.run_mission` loads a tree file with the
+scene's pad; a tree loaded (or built) in Python keeps the conversions of the pad it was given,
+so load it with the pad of the scene or sensor it will run on. Blackboard references in tactels
+are converted when the node starts, with the pad on the blackboard (``/tactile/pad``).
+
 Every error names the file, line and column and the field, and suggests the closest valid name.
 
 This module builds and checks trees; the pieces around it live next to it: the node registry
@@ -58,11 +65,12 @@ import yaml
 from py_trees.common import Access
 
 from tactile_bt.errors import ParameterTypeError, ParameterValueError, TreeError
+from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
 from tactile_bt.tree.blackboard import NAMESPACE
 from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
 from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
-                                        normalise_key, parameters_of)
+                                        normalise_key, parameters_of, uses_pad_units)
 from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, node_types
 from tactile_bt.tree.subtrees import PARAM_REF, Subtree, SubtreeExpansion, parse_subtrees
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
@@ -76,18 +84,18 @@ _TOP_KEYS = ("name", "description", "include", "subtrees", "root")
 
 
 def _check_type(value: Located, annotation: Any, field: str, unit: str | None = None, bound: Bound | None = None,
-                label: str | None = None) -> Any:
+                label: str | None = None, pad: PadGeometry | None = None) -> Any:
     """Check a located value against a parameter's type hint and bound; return it in its Python
-    form (strings with a unit converted to ``unit``). Errors name the value's position (the bad
-    element of a list) and the field; a value out of bounds also names the node (``label``,
-    e.g. ``force_hold 'hold'``)."""
+    form (strings with a unit converted to ``unit``, tactels with the pitch of ``pad``). Errors
+    name the value's position (the bad element of a list) and the field; a value out of bounds
+    also names the node (``label``, e.g. ``force_hold 'hold'``)."""
     v = value.value
     name = field.rsplit(".", 1)[-1]
     node = label or field.rsplit(".", 1)[0]
     if isinstance(v, list) and describe_type(annotation) == "list[float]":
         for i, element in enumerate(v):  # element by element, so that the error points at the bad one
             try:
-                convert_parameter(element.value, float, unit, bound, name)
+                convert_parameter(element.value, float, unit, bound, name, pad)
             except ParameterTypeError as exc:
                 problem = exc.detail or f"expected a list of numbers, got {plain(v)!r}"
                 raise located_error(element, f"{field}: {_hinted(problem, element.value)}", field) from None
@@ -95,7 +103,7 @@ def _check_type(value: Located, annotation: Any, field: str, unit: str | None = 
                 message = ParameterValueError(name, exc.detail, i).message
                 raise located_error(element, f"{node}: {message}", field) from None
     try:
-        return convert_parameter(plain(v), annotation, unit, bound, name)
+        return convert_parameter(plain(v), annotation, unit, bound, name, pad)
     except ParameterTypeError as exc:
         raise located_error(value, f"{field}: {_hinted(str(exc), plain(v))}", field) from None
     except ParameterValueError as exc:
@@ -183,7 +191,7 @@ class _Builder(SubtreeExpansion):
     name (``surveyed``) and builds placeholders, so that ``--param`` targets can be resolved
     even when a value in the file is bad; ``overrides`` (index → parameter → located value)
     replaces or adds parameters of the nodes with those indices. ``records`` collects the
-    resolved parameters of every node built.
+    resolved parameters of every node built. ``pad`` converts lengths in tactels.
     """
 
     subtrees: dict[str, Subtree] = field(default_factory=dict)
@@ -193,6 +201,8 @@ class _Builder(SubtreeExpansion):
     surveyed: list[_Surveyed] = field(default_factory=list)
     records: list[NodeParameters] = field(default_factory=list)
     count: int = 0
+    pad: PadGeometry = field(default_factory=PadGeometry)
+    pad_fields: list[str] = field(default_factory=list)
 
     def node(self, node: Located, default_name: str | None = None) -> py_trees.behaviour.Behaviour:
         if not isinstance(node.value, dict) or len(node.value) != 1:
@@ -250,7 +260,9 @@ class _Builder(SubtreeExpansion):
                 refs[key] = (ref, origin_of(value))
                 continue
             p = params[key]
-            kwargs[key] = _check_type(value, p.annotation, field, p.unit, p.bound, label)
+            kwargs[key] = _check_type(value, p.annotation, field, p.unit, p.bound, label, self.pad)
+            if uses_pad_units(plain(value.value)):
+                self.pad_fields.append(f"{origin_of(value)} {field}")
         missing = [n for n, p in params.items() if p.required and n not in kwargs and n not in refs]
         if missing:
             raise located_error(body, f"{type_name}: missing parameter(s) {', '.join(missing)}", type_name)
@@ -504,9 +516,11 @@ def _probe(record: NodeParameters, parameter: str, value: Any, source: str) -> N
     _discard(probe)
 
 
-def _blackboard_values(items, root, records: list[NodeParameters]) -> dict[str, Any]:
+def _blackboard_values(items, root, records: list[NodeParameters], pad: PadGeometry,
+                       pad_fields: list[str]) -> dict[str, Any]:
     """Key → value of the ``--blackboard KEY=VALUE`` settings, each checked like the parameters
-    it gives (type, unit, range and the class's own checks)."""
+    it gives (type, unit, range and the class's own checks; tactels with the pitch of ``pad``,
+    noted in ``pad_fields``)."""
     read = _keys_read(root)
     values: dict[str, Any] = {}
     for key, source, value in _parse_assignments(items, "--blackboard", "KEY"):
@@ -518,10 +532,13 @@ def _blackboard_values(items, root, records: list[NodeParameters]) -> dict[str, 
             raise _option_error(source, f"the tree reads no blackboard key {key!r}{did_you_mean(key, read)}; "
                                         f"it reads: {', '.join(read) or 'none'}")
         converted = plain(value)
+        if uses_pad_units(converted):
+            pad_fields.append(source)
         for record, name in _key_uses(key, records):
             info = {p.name: p for p in parameters_of(type(record.node))}[name]
             label = node_label(type(record.node), record.name)
-            converted = _check_type(value, info.annotation, f"{record.type}.{name}", info.unit, info.bound, label)
+            converted = _check_type(value, info.annotation, f"{record.type}.{name}", info.unit, info.bound, label,
+                                    pad)
             _probe(record, name, converted, source)
         values[key] = converted
     return values
@@ -532,19 +549,34 @@ class LoadedTree(py_trees.trees.BehaviourTree):
     (``source``, ``tree_name``, ``description``), the resolved parameters of its nodes
     (``node_parameters``, a list of :class:`NodeParameters` in build order) and the blackboard
     values to write before it runs (``blackboard_values``, from ``--blackboard``): ``setup()``
-    writes them, so they are in place when the mission (or a test harness) starts ticking."""
+    writes them, so they are in place when the mission (or a test harness) starts ticking.
+    ``pad`` is the pad whose pitch converted the lengths given in tactels, ``pad_fields`` the
+    places (``file:line:column field``, or the option) that gave one."""
 
     source: str = ""
     tree_name: str = ""
     description: str = ""
     node_parameters: list[NodeParameters]
     blackboard_values: dict[str, Any]
+    pad: PadGeometry
+    pad_fields: list[str]
 
     def __init__(self, root: py_trees.behaviour.Behaviour) -> None:
         super().__init__(root)
         self.node_parameters = []
         self.blackboard_values = {}
+        self.pad = PadGeometry()
+        self.pad_fields = []
         self._writer: py_trees.blackboard.Client | None = None
+
+    def check_pad(self, pad: PadGeometry, where: str) -> None:
+        """Raise :class:`TreeError` when lengths in tactels of this tree were converted with
+        another pitch than that of ``pad``, the pad it is about to run on (``where`` names it,
+        e.g. the scene file)."""
+        if self.pad_fields and self.pad.pitch != pad.pitch:
+            raise TreeError(f"{', '.join(self.pad_fields)}: lengths in tactels were converted with a "
+                            f"{self.pad.pitch * 1e3:g} mm pitch, {where} has {pad.pitch * 1e3:g} mm; "
+                            f"load the tree with load_tree(..., pad=) of that pad")
 
     def write_blackboard(self) -> None:
         """Write ``blackboard_values`` (an absolute key → value) to the blackboard."""
@@ -629,12 +661,21 @@ def _check_top_keys(doc: Located) -> None:
                                         f"valid: {', '.join(_TOP_KEYS)}", key)
 
 
-def load_tree(path: str | Path, text: str | None = None, params=None, blackboard=None) -> LoadedTree:
+def load_tree(path: str | Path, text: str | None = None, params=None, blackboard=None,
+              pad: PadGeometry | None = None) -> LoadedTree:
     """Load and validate a YAML tree file into a :class:`py_trees.trees.BehaviourTree`
     (a :class:`LoadedTree`).
 
     ``text`` gives the file's content directly (``path`` then only names it in errors and
     anchors relative ``include`` paths).
+
+    ``pad`` (a :class:`~tactile_bt.sense.geometry.PadGeometry`, default ``PadGeometry()``: the
+    paper's 5 mm pitch) converts lengths given in tactels (``band: 0.5 px``) to metres, here at
+    load time, before any scene is known. :func:`~tactile_bt.mission.run.run_mission` passes the
+    scene's pad when it loads a tree file; a tree loaded or built in Python converts its tactels
+    with the pad given here, whatever pad it later runs on, so pass the pad of that scene
+    (``scene.sensor.geometry``) or sensor. Blackboard references in tactels are converted when
+    their node starts, with the pad on the blackboard.
 
     ``params`` sets node parameters as ``--param`` does: strings ``"NODE.PARAM=VALUE"`` (or a
     mapping ``{"NODE.PARAM": value}``), where NODE is a node's name as ``tactile-bt tree``
@@ -664,19 +705,21 @@ def load_tree(path: str | Path, text: str | None = None, params=None, blackboard
     _check_top_keys(doc)
     if "root" not in doc.value:
         raise located_error(doc, "a tree file needs a 'root' node", "root")
+    pad = PadGeometry() if pad is None else pad
     here = Path(str(path)).resolve()
     subtrees: dict[str, Subtree] = {}
     _collect_subtrees(doc, here, subtrees, {here})
     overrides: dict[int, dict[str, Located]] = {}
     if params:
-        survey = _Builder(subtrees, survey=True)
+        survey = _Builder(subtrees, survey=True, pad=pad)
         survey.node(doc.value["root"])
         for sub in subtrees.values():
             sub.used, sub.defaults_used = False, set()
         overrides = _resolve_overrides(params, survey.surveyed)
-    builder = _Builder(subtrees, overrides=overrides)
+    builder = _Builder(subtrees, overrides=overrides, pad=pad)
     root = builder.node(doc.value["root"])
     records = list(builder.records)
+    pad_fields = list(builder.pad_fields)  # of the tree, not of the unused subtrees checked below
     for sub in subtrees.values():
         # Check the defaults no use has taken (and unused subtrees) by building once with them.
         if not sub.used or sub.defaults_used != set(sub.params):
@@ -687,6 +730,8 @@ def load_tree(path: str | Path, text: str | None = None, params=None, blackboard
     tree.tree_name = plain(doc.value["name"]) if "name" in doc.value else Path(str(path)).stem
     tree.description = str(plain(doc.value["description"])) if "description" in doc.value else ""
     tree.node_parameters = records
+    tree.pad = pad
+    tree.pad_fields = pad_fields
     if blackboard:
-        tree.blackboard_values = _blackboard_values(blackboard, root, records)
+        tree.blackboard_values = _blackboard_values(blackboard, root, records, pad, tree.pad_fields)
     return tree

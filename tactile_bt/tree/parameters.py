@@ -14,6 +14,11 @@ A blackboard reference makes a parameter follow a blackboard key: the key is rea
 is *initialised* (each time it starts), never on every tick, so references cost nothing on the
 control cycle's hot path. See :func:`bind_blackboard`.
 
+Lengths may be given in tactels of the pad (``px``, ``tactel``, :data:`PAD_UNITS`): they are
+converted with the pitch of a :class:`~tactile_bt.sense.geometry.PadGeometry` (``pad=`` of
+:func:`parse_quantity` and :func:`convert_parameter`, the scene's pad for a tree file a mission
+loads, the blackboard's ``/tactile/pad`` for a blackboard reference).
+
 Layer: tree.
 """
 
@@ -33,11 +38,15 @@ import py_trees
 from py_trees.common import Access
 
 from tactile_bt.errors import BlackboardReferenceError, ParameterTypeError, ParameterValueError
-from tactile_bt import defaults
+from tactile_bt.sense.geometry import PadGeometry
+from tactile_bt.tree.blackboard import current_pad
 
 __all__ = [
     "UNITS",
     "ACCEPTED_UNITS",
+    "PAD_UNITS",
+    "accepted_units",
+    "uses_pad_units",
     "ParameterTypeError",
     "ParameterValueError",
     "BlackboardReferenceError",
@@ -61,17 +70,19 @@ __all__ = [
     "blackboard_references",
 ]
 
-#: SI unit → the units a YAML value may carry instead, with their factor to the SI unit.
+#: SI unit → the units a YAML value may carry instead, with their factor to the SI unit. Lengths
+#: also take the :data:`PAD_UNITS`, whose factor is the pad's pitch (:func:`accepted_units`).
 ACCEPTED_UNITS: dict[str, dict[str, float]] = {
     "Pa": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6},
     "m/s": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
     "rad/s": {"rad/s": 1.0, "deg/s": math.pi / 180.0},
     "rad": {"rad": 1.0, "deg": math.pi / 180.0, "°": math.pi / 180.0},
-    "m": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "px": defaults.PITCH_M,
-          "tactel": defaults.PITCH_M, "tactels": defaults.PITCH_M},
+    "m": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6},
     "s": {"s": 1.0, "ms": 1e-3, "min": 60.0},
     "N": {"N": 1.0, "mN": 1e-3},
 }
+#: Length units counted in tactels of the pad: one is the pad's pitch in m.
+PAD_UNITS: tuple[str, ...] = ("px", "tactel", "tactels")
 #: Name suffix → SI unit: a parameter named ``*_pa`` is in Pa, ``*_mps`` in m/s, and so on.
 #: Classes name the units of other parameters in ``parameter_units`` (e.g. ``band``).
 UNITS: dict[str, str] = {"_pa": "Pa", "_mps": "m/s", "_rps": "rad/s", "_rad": "rad", "_m": "m", "_s": "s", "_n": "N"}
@@ -293,12 +304,35 @@ def unit_of(name: str, cls: type | None = None) -> str | None:
     return None
 
 
-def parse_quantity(text: str, unit: str | None) -> float:
+def accepted_units(unit: str | None, pad: PadGeometry | None = None) -> dict[str, float] | None:
+    """The units a value in SI unit ``unit`` may carry, with their factors to it (None when it
+    takes a plain number only): :data:`ACCEPTED_UNITS`, plus for lengths the :data:`PAD_UNITS`
+    with the pitch of ``pad`` (default ``PadGeometry()``, 5 mm)."""
+    table = ACCEPTED_UNITS.get(unit or "")
+    if table is None or unit != "m":
+        return table
+    pitch = (PadGeometry() if pad is None else pad).pitch
+    return {**table, **dict.fromkeys(PAD_UNITS, pitch)}
+
+
+def uses_pad_units(value: Any) -> bool:
+    """Whether ``value`` (a quantity string such as ``"0.5 px"``, or a list of them) gives a
+    length in tactels, whose value depends on the pad's pitch."""
+    if isinstance(value, str):
+        match = _QUANTITY.match(value)
+        return bool(match) and match.group(2) in PAD_UNITS
+    if isinstance(value, (list, tuple)):
+        return any(uses_pad_units(v) for v in value)
+    return False
+
+
+def parse_quantity(text: str, unit: str | None, pad: PadGeometry | None = None) -> float:
     """``"2 kPa"`` → 2000.0 for a parameter in Pa, ``"1500"`` → 1500.0 (a plain number is in the
-    parameter's SI unit); raises :class:`ParameterTypeError` on a unit of the wrong kind, a
-    malformed quantity, or a unit on a parameter that takes a plain number."""
+    parameter's SI unit); ``"2 px"`` is two pitches of ``pad`` (default ``PadGeometry()``).
+    Raises :class:`ParameterTypeError` on a unit of the wrong kind, a malformed quantity, or a
+    unit on a parameter that takes a plain number."""
     match = _QUANTITY.match(text)
-    accepted = ACCEPTED_UNITS.get(unit or "")
+    accepted = accepted_units(unit, pad)
     if match and match.group(2) is None:
         return float(match.group(1))
     if accepted is None:
@@ -345,26 +379,27 @@ def describe_type(annotation: Any) -> str:
 
 
 def convert_parameter(value: Any, annotation: Any, unit: str | None = None, bound: Bound | None = None,
-                      name: str | None = None) -> Any:
+                      name: str | None = None, pad: PadGeometry | None = None) -> Any:
     """Check ``value`` against ``annotation`` (bool, int, float, str, Literal[...] or a sequence
     of floats) and ``bound``, and return it in its Python form (floats as float, sequences as
     tuples).
 
     Strings holding a number are accepted for numbers: a plain number (``"1500"``) is in the
     parameter's SI unit ``unit``; a number with a unit (``"2 kPa"``, ``"90 deg"``) is converted
-    when ``unit`` is one of :data:`ACCEPTED_UNITS`. Floats must be finite and inside ``bound``
+    when ``unit`` is one of :data:`ACCEPTED_UNITS` (``"1 px"``: the pitch of ``pad``, default
+    ``PadGeometry()``). Floats must be finite and inside ``bound``
     (:data:`FINITE` when None); ints inside ``bound`` when given. Raises
     :class:`ParameterTypeError` for a value of the wrong type and :class:`ParameterValueError`
     (naming ``name``) for one out of bounds.
     """
-    out = _convert(value, annotation, unit)
+    out = _convert(value, annotation, unit, pad)
     if bound is None and _is_float_like(annotation):
         bound = FINITE
     check_bound(name, out, bound, unit)
     return out
 
 
-def _convert(value: Any, annotation: Any, unit: str | None) -> Any:
+def _convert(value: Any, annotation: Any, unit: str | None, pad: PadGeometry | None) -> Any:
     origin = typing.get_origin(annotation)
     if origin is typing.Literal:
         choices = typing.get_args(annotation)
@@ -386,7 +421,7 @@ def _convert(value: Any, annotation: Any, unit: str | None) -> Any:
         return int(value)
     if annotation is float:
         if isinstance(value, str):
-            return parse_quantity(value, unit)
+            return parse_quantity(value, unit, pad)
         if not _is_number(value):
             raise ParameterTypeError("a number", value)
         return float(value)
@@ -400,7 +435,7 @@ def _convert(value: Any, annotation: Any, unit: str | None) -> Any:
         out = []
         for v in value:
             if isinstance(v, str):
-                out.append(parse_quantity(v, unit))
+                out.append(parse_quantity(v, unit, pad))
             elif _is_number(v):
                 out.append(float(v))
             else:
@@ -510,7 +545,8 @@ def bind_blackboard(behaviour: py_trees.behaviour.Behaviour, parameter: str, key
     """Make ``parameter`` of ``behaviour`` follow the blackboard ``key``.
 
     The key is read each time the behaviour starts (``initialise``), checked against the
-    parameter's type and applied with ``behaviour.set_parameter`` (or ``setattr``). A missing key
+    parameter's type and applied with ``behaviour.set_parameter`` (or ``setattr``); a length
+    in tactels (``"0.5 px"``) is converted with the pad on the blackboard (``/tactile/pad``). A missing key
     or a bad value raises :class:`BlackboardReferenceError` naming ``origin`` (the tree file,
     line and column of the reference), the parameter and the key. Nothing is added to the tick.
 
@@ -545,6 +581,7 @@ def bind_blackboard(behaviour: py_trees.behaviour.Behaviour, parameter: str, key
 
 def _resolve(behaviour, params: dict[str, ParameterInfo]) -> None:
     client = behaviour._parameter_client
+    pad = current_pad()
     for parameter, (key, origin) in behaviour._blackboard_parameters.items():
         prefix = f"{origin}: " if origin else ""
         field = f"{behaviour.name}.{parameter}"
@@ -555,7 +592,7 @@ def _resolve(behaviour, params: dict[str, ParameterInfo]) -> None:
         value = client.get(key)
         try:
             info = params[parameter]
-            value = convert_parameter(value, info.annotation, info.unit, info.bound, parameter)
+            value = convert_parameter(value, info.annotation, info.unit, info.bound, parameter, pad)
             setter = getattr(behaviour, "set_parameter", None)
             if setter is not None:
                 setter(parameter, value)

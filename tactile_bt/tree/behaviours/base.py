@@ -14,22 +14,28 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
-from tactile_bt import defaults
+from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian
-from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, read
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 
-__all__ = ["TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT"]
+__all__ = ["TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale"]
 
 _ZERO_TWIST = (0.0,) * 6
 
-#: Name and scale of the logged error of each feature component (metric units: Pa, px, rad).
+#: Name of the logged error of each feature component (units: px of the pad, Pa, rad).
 METRIC_OF_COMPONENT = {
-    0: ("cop_x_px", 1.0 / defaults.PITCH_M),
-    1: ("cop_y_px", 1.0 / defaults.PITCH_M),
-    2: ("pressure_pa", 1.0),
-    3: ("orientation_rad", 1.0),
+    0: "cop_x_px",
+    1: "cop_y_px",
+    2: "pressure_pa",
+    3: "orientation_rad",
 }
+
+
+def metric_scale(component: int, pad: PadGeometry) -> float:
+    """Factor from a component's error in SI units (m, Pa, rad) to its logged unit: tactels of
+    ``pad`` (``1 / pad.pitch``) for the COP components, 1 for pressure and orientation."""
+    return 1.0 / pad.pitch if component in (0, 1) else 1.0
 
 
 class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
@@ -77,6 +83,11 @@ class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
     def pose(self) -> np.ndarray:
         """``T_gs`` of this cycle."""
         return read(POSE)
+
+    @property
+    def pad(self) -> PadGeometry:
+        """The mission's pad (``/tactile/pad``; the default ``PadGeometry()`` when none is written)."""
+        return current_pad()
 
     def set_parameter(self, name: str, value) -> None:
         """Change parameter ``name`` (already checked against its type) between runs.
@@ -160,7 +171,7 @@ class ServoLeaf(TactileBehaviour):
         # Components with no row in P·J⁻¹ are not controlled (e.g. a tactile_servo whose P
         # leaves them out): they neither gate the leaf on NaN nor appear in the error log.
         self._active = [j for j in range(n) if self._rows_of[j]]
-        self._metrics = [METRIC_OF_COMPONENT[c] for c in self.components]
+        self._set_pad(PadGeometry())  # the mission's pad replaces it when the leaf starts
         self.converge = bool(converge)
         self.set_parameter("band", band)
         self.set_parameter("dwell_s", dwell_s)
@@ -208,6 +219,10 @@ class ServoLeaf(TactileBehaviour):
         else:
             super().set_parameter(name, value)
 
+    def _set_pad(self, pad: PadGeometry) -> None:
+        """Log the COP errors in tactels of ``pad``."""
+        self._metrics = [(METRIC_OF_COMPONENT[c], metric_scale(c, pad)) for c in self.components]
+
     @property
     def last_twist(self) -> np.ndarray:
         """The twist part ``P_i · J⁻¹ · u`` this leaf added in its last tick (sensor frame)."""
@@ -227,8 +242,7 @@ class ServoLeaf(TactileBehaviour):
 
     def _format_error(self) -> str:
         return "error " + ", ".join(
-            f"{METRIC_OF_COMPONENT[c][0]}={-e * METRIC_OF_COMPONENT[c][1]:+.3g}"
-            for c, e in zip(self.components, self.last_error)
+            f"{metric}={-e * scale:+.3g}" for (metric, scale), e in zip(self._metrics, self.last_error)
         )
 
     # -- to be provided by subclasses -------------------------------------------------------
@@ -238,6 +252,7 @@ class ServoLeaf(TactileBehaviour):
 
     # -- py_trees life cycle ----------------------------------------------------------------
     def initialise(self) -> None:
+        self._set_pad(self.pad)
         self.pid.reset()
         self._inside_since = None
         self._last_twist = _ZERO_TWIST

@@ -19,17 +19,16 @@ from scipy import ndimage
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
 from tactile_bt.perception.features import local_contact_point
+from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["RecordContacts", "imprint_points"]
 
-#: Half the pad's width (m): a turn of the pad by θ rad moves its border by about this times θ.
-_PAD_HALF_M = 0.04
-
 
 @functools.lru_cache(maxsize=8)
-def _imprint_grid(rows: int, cols: int, pitch: float, step: float):
+def _imprint_grid(pad: PadGeometry, step: float):
     """Bilinear interpolation matrices from tactel centres to a grid of sample points covering
     the pad at spacing ``step`` (m), and the samples' sensor-frame x, y (m), row-major."""
+    pitch = pad.pitch
 
     def axis(n: int) -> tuple[np.ndarray, np.ndarray]:
         count = max(1, int(round(n * pitch / step)))
@@ -44,8 +43,8 @@ def _imprint_grid(rows: int, cols: int, pitch: float, step: float):
             A[np.arange(count), lo + 1] += frac
         return A, (u - (n - 1) * 0.5) * pitch
 
-    A_r, y = axis(rows)
-    A_c, x = axis(cols)
+    A_r, y = axis(pad.rows)
+    A_c, x = axis(pad.cols)
     X, Y = np.meshgrid(x, y)  # (len(y), len(x)): rows of samples along y
     xy = np.column_stack((X.ravel(), Y.ravel(), np.zeros(X.size)))
     return A_r, A_c, xy
@@ -81,17 +80,17 @@ def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tupl
     if not features.in_contact or image is None:
         return np.zeros((0, 3)), np.zeros(0)
     mask = features.mask
-    rows, cols = mask.shape
+    pad = features.pad
     # only the largest region (and its immediate fringe): other blobs are not this contact
     region = ndimage.binary_dilation(mask)
     img = np.where(region, image, 0.0)
     peak = float(np.percentile(image[mask], 90))
     if not peak > 0.0:
         return np.zeros((0, 3)), np.zeros(0)
-    A_r, A_c, xy = _imprint_grid(rows, cols, float(features.pitch), float(step_m))
+    A_r, A_c, xy = _imprint_grid(pad, float(step_m))
     values = (A_r @ img @ A_c.T).ravel()
     keep = values >= level * peak
-    return xy[keep], values[keep] / features.pitch**2
+    return xy[keep], values[keep] / pad.tactel_area_m2
 
 
 class RecordContacts(TactileBehaviour):
@@ -104,7 +103,8 @@ class RecordContacts(TactileBehaviour):
     min_spacing_m : float
         Skip a cycle whose contact point lies closer than this (m) to the previous recorded one
         (0 keeps all). With ``point: region``: skip the cycle until the pad has moved this far
-        (its centre of pressure, plus 40 mm times the turn of the pad in rad).
+        (its centre of pressure, plus half the pad's longer side, 40 mm on the default pad,
+        times the turn of the pad in rad).
     point : str
         ``"cop"``: the centre of pressure (Eq. 1). ``"local"``: where an elongated contact
         crosses the pad centre (:func:`~tactile_bt.perception.features.local_contact_point`), which removes
@@ -192,8 +192,7 @@ class RecordContacts(TactileBehaviour):
         T = self.pose
         R = T[:3, :3]
         if self.point == "local":
-            px = local_contact_point(f)
-            cop = (px - ((f.mask.shape[1] - 1) * 0.5, (f.mask.shape[0] - 1) * 0.5)) * f.pitch
+            cop = f.pad.px_to_m(local_contact_point(f))
         else:
             cop = f.cop
         point = R @ (cop[0], cop[1], 0.0) + T[:3, 3]
@@ -201,7 +200,8 @@ class RecordContacts(TactileBehaviour):
         if self.point == "region":
             if self._last is not None and self.min_spacing_m > 0:
                 moved = math.sqrt(float(np.sum((point - self._last) ** 2)))
-                moved += _PAD_HALF_M * float(np.linalg.norm(R - self._last_rotation)) / math.sqrt(2.0)
+                # a turn of the pad by θ rad moves its border by about half its width times θ
+                moved += f.pad.half_width_m * float(np.linalg.norm(R - self._last_rotation)) / math.sqrt(2.0)
                 if moved < self.min_spacing_m:
                     return Status.RUNNING
             local, pressure = imprint_points(f, self.region_level, self.region_step_m)

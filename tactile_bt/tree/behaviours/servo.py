@@ -98,7 +98,7 @@ class Centre(_PositionLeaf):
     contact position control, P = diag(1, 1, 0, 0, 0, 0), Sec. V-A-2).
 
     RUNNING while it servos (SUCCESS on convergence with ``converge``); its feedback message
-    shows the COP error (measured − target, tactels).
+    shows the COP error (measured − target, in tactels of the mission's pad).
 
     Parameters
     ----------
@@ -113,7 +113,8 @@ class Centre(_PositionLeaf):
     output_limit : float
         Largest sliding speed per axis (m/s).
     band : float
-        Convergence band of each COP error component (m; 0.1 tactel by default).
+        Convergence band of each COP error component (m; 0.5 mm by default, a tenth of the
+        default pad's tactel; ``0.1 px`` is a tenth of the scene's).
     """
 
     rows = (0, 1)
@@ -127,7 +128,7 @@ class Centre(_PositionLeaf):
         kd: float = defaults.CENTRE_KD,
         output_limit: float = defaults.CENTRE_LIMIT_MPS,
         converge: bool = False,
-        band: float = 0.1 * defaults.PITCH_M,
+        band: float = defaults.COP_BAND_M,
         dwell_s: float = 0.5,
     ) -> None:
         super().__init__(name, target_m, kp, ki, kd, output_limit, converge, band, dwell_s)
@@ -165,7 +166,7 @@ class Roll(_PositionLeaf):
         kd: float = defaults.ROLL_KD,
         output_limit: float = defaults.ROLL_LIMIT_MPS,
         converge: bool = False,
-        band: float = 0.1 * defaults.PITCH_M,
+        band: float = defaults.COP_BAND_M,
         dwell_s: float = 0.5,
         roll_radius: float = defaults.ROLL_RADIUS_M,
     ) -> None:
@@ -271,8 +272,8 @@ class TactileServo(ServoLeaf):
             defaults.ALIGN_LIMIT_RPS,
         ),
         converge: bool = False,
-        band: Sequence[float] = (0.1 * defaults.PITCH_M, 0.1 * defaults.PITCH_M,
-                                 0.05 * defaults.TARGET_PRESSURE_PA, float(np.deg2rad(2.0))),
+        band: Sequence[float] = (defaults.COP_BAND_M, defaults.COP_BAND_M, 0.05 * defaults.TARGET_PRESSURE_PA,
+                                 float(np.deg2rad(2.0))),
         dwell_s: float = 0.5,
         roll_radius: float = defaults.ROLL_RADIUS_M,
     ) -> None:
