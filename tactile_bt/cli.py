@@ -29,7 +29,7 @@ def _cmd_run(args) -> int:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
                              orientation_method=args.orientation, via_emulator=args.via_emulator,
-                             record=args.record, reconstruct=args.reconstruct,
+                             recording=args.record, reconstruct=args.reconstruct,
                              params=args.param, blackboard=args.blackboard)
     finally:
         progress.close()

@@ -24,7 +24,7 @@ def test_mission_through_the_emulator_gives_the_same_features_as_direct_frames()
 
 def test_a_recorded_mission_replays_deterministically(tmp_path):
     rec = tmp_path / "cable.tbr"
-    mission = run_mission(TREE, SCENE, duration=1.5, seed=2, record=rec)
+    mission = run_mission(TREE, SCENE, duration=1.5, seed=2, recording=rec)
     recording = read_recording(rec)
     assert len(recording) == mission.report["ticks"]
     assert_array_equal(recording.poses[:, :3, 3], mission.log["position_m"])

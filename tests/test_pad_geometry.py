@@ -185,7 +185,7 @@ def test_a_pen_mission_on_a_4_mm_pad_logs_the_pressure_of_4_mm_tactels():
 def test_a_cable_mission_on_a_12_by_20_pad_records_points_on_the_cable(tmp_path):
     record = tmp_path / "cable.tbr"
     result = run_mission(ROOT / "trees" / "cable_follow.yaml", ROOT / "sim" / "cable.yaml", duration=3.0,
-                         overrides=OVERRIDES, record=record)
+                         overrides=OVERRIDES, recording=record)
     report = result.report
     assert report["status"] == "completed" and report["contacts"] > 300
     # px -> m with the 4 mm pitch and the 12x20 centre puts the contacts on the true cable

@@ -34,6 +34,7 @@ import numpy as np
 from tactile_bt.perception.features import wrap_half_pi
 
 __all__ = [
+    "per_component",
     "FEATURE_NAMES",
     "TWIST_NAMES",
     "inverse_task_jacobian",
@@ -107,6 +108,24 @@ def feature_error(features, target_cop=(0.0, 0.0), target_pressure=0.0, target_o
     )
 
 
+def per_component(value, n: int, label: str, owner: str = "") -> list[float]:
+    """One number or ``n`` numbers (a gain, a limit, a band) as ``n`` Python floats.
+
+    The one place where per-component settings are broadcast and checked: raises
+    ``ValueError`` naming ``owner`` and ``label`` when ``value`` has another length, or holds a
+    NaN or a negative number.
+    """
+    prefix = f"{owner}: " if owner else ""
+    try:
+        array = np.broadcast_to(np.asarray(value, dtype=float), (n,))
+    except ValueError:
+        raise ValueError(f"{prefix}{label} must be one number or {n} numbers (one per controlled component), "
+                         f"got {value!r}") from None
+    if np.any(np.isnan(array)) or np.any(array < 0):
+        raise ValueError(f"{prefix}{label} must not be negative, got {value!r}")
+    return [float(v) for v in array]
+
+
 class PID:
     """Vector PID with anti-windup, one independent loop per component (paper Eq. 3).
 
@@ -125,19 +144,18 @@ class PID:
         Gains per component; units are (command unit) / (error unit) [/ s or · s].
     output_limit : float or sequence of float
         Largest ``|u|`` per component.
+    n : int, optional
+        Number of components (default: the length of ``kp``).
+    owner : str
+        Name of the leaf the PID belongs to, for error messages.
     """
 
-    def __init__(self, kp, ki=0.0, kd=0.0, output_limit=math.inf) -> None:
-        kp = np.atleast_1d(np.asarray(kp, dtype=float))
-        n = kp.shape[0]
-
-        def per_component(x):
-            return [float(v) for v in np.broadcast_to(np.asarray(x, dtype=float), (n,))]
-
-        self.kp, self.ki, self.kd = per_component(kp), per_component(ki), per_component(kd)
-        self.output_limit = per_component(output_limit)
-        if any(v < 0 for v in self.kp + self.ki + self.kd + self.output_limit):
-            raise ValueError("PID gains and output limits must not be negative")
+    def __init__(self, kp, ki=0.0, kd=0.0, output_limit=math.inf, n: int | None = None, owner: str = "") -> None:
+        n = int(np.atleast_1d(np.asarray(kp, dtype=float)).shape[0]) if n is None else int(n)
+        self.kp = per_component(kp, n, "kp", owner)
+        self.ki = per_component(ki, n, "ki", owner)
+        self.kd = per_component(kd, n, "kd", owner)
+        self.output_limit = per_component(output_limit, n, "output_limit", owner)
         self._imax = [lim / ki if ki > 0 else math.inf for lim, ki in zip(self.output_limit, self.ki)]
         self.n = n
         self.reset()

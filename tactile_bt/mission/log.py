@@ -40,7 +40,7 @@ class MissionLog:
         self.rotation = np.zeros((n, 3, 3))
         self.joints: np.ndarray | None = None  # (n, 7) rad, when the pad is on the arm
 
-    def record(self, k: int, t: float, loop, twist_s: np.ndarray, pose: np.ndarray,
+    def write(self, k: int, t: float, loop, twist_s: np.ndarray, pose: np.ndarray,
                penetration: float = float("nan")) -> None:
         """Store cycle ``k`` (mission time ``t``) of a control loop."""
         f_raw, f = loop.features_raw, loop.features

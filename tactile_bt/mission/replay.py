@@ -1,7 +1,7 @@
 """Feed a recording back through perception and a tree: the same control loop and the same
 finish as a mission, on recorded frames and poses instead of a simulator or a live sensor.
 
-A recording made by ``run_mission(..., record=FILE)`` or ``tactile-bt sensor record`` replays
+A recording made by ``run_mission(..., recording=FILE)`` or ``tactile-bt sensor record`` replays
 deterministically: the same recording and tree give the same features and twists, at any speed.
 
 Layer: mission.
@@ -113,7 +113,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
                     time.sleep(delay)
             pose = rec.poses[k] if np.all(np.isfinite(rec.poses[k])) else np.eye(4)
             twist = loop.cycle(rec.values[k], pose, float(t[k]))
-            log.record(k, float(t[k]), loop, twist, pose)
+            log.write(k, float(t[k]), loop, twist, pose)
             outcome = root_outcome(tree.root)
             if outcome is not None:
                 status, reason = outcome

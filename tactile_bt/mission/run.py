@@ -64,7 +64,7 @@ def run_mission(
     orientation_method: str = "moments",
     threshold: float = defaults.CONTACT_THRESHOLD_N,
     via_emulator: bool = False,
-    record: str | Path | None = None,
+    recording: str | Path | None = None,
     reconstruct: str | None = None,
     scan_region: dict | None = None,
     params: list[str] | None = None,
@@ -98,9 +98,9 @@ def run_mission(
     via_emulator : bool
         Carry every simulated frame through the device emulator, a pseudo-terminal and the
         serial driver (:mod:`tactile_bt.sense.hardware`), as a real sensor's frames would come.
-    record : path, optional
+    recording : path, optional
         Record every raw frame with its pose into this chunked recording (and the simulated
-        pad's calibration next to it, ``<record>.calibration.npz``) for ``replay_mission``.
+        pad's calibration next to it, ``<recording>.calibration.npz``) for ``replay_mission``.
     reconstruct : str, optional
         Reconstruct the contact cloud into a surface with this method (``auto``, ``delaunay``,
         ``surface``, ``hull``; ``none`` for no surface), overriding the tree's
@@ -147,11 +147,11 @@ def run_mission(
         from tactile_bt.sense.hardware.link import EmulatedSensorLink
 
         link = stack.enter_context(EmulatedSensorLink(pad.rows, pad.cols))
-    if record is not None:
+    if recording is not None:
         from tactile_bt.sense.hardware.recording import Recorder
 
-        world.calibration.save(calibration_path(record))
-        recorder = stack.enter_context(Recorder(record, pad.rows, pad.cols,
+        world.calibration.save(calibration_path(recording))
+        recorder = stack.enter_context(Recorder(recording, pad.rows, pad.cols,
                                                 metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
                                                           "pitch_m": pad.pitch}))
     wall_start = time.perf_counter()
@@ -168,7 +168,7 @@ def run_mission(
                 recorder.write(raw, pose, timestamp=t)
             twist_s = loop.cycle(raw, pose, t)
             world.move(body_to_spatial(pose, twist_s), dt)
-            log.record(k, t, loop, twist_s, pose, world.last_penetration)
+            log.write(k, t, loop, twist_s, pose, world.last_penetration)
             if joints is not None:
                 log.joints[k] = joints()
             if progress is not None and k % progress_every == 0:

@@ -16,7 +16,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
-from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian
+from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 
 __all__ = ["TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale"]
@@ -180,18 +180,7 @@ class ServoLeaf(TactileBehaviour):
         self._last_twist = _ZERO_TWIST
 
     def _make_pid(self, kp, ki, kd, output_limit) -> PID:
-        n = len(self.components)
-        gains = {}
-        for label, value in (("kp", kp), ("ki", ki), ("kd", kd), ("output_limit", output_limit)):
-            try:
-                array = np.broadcast_to(np.asarray(value, dtype=float), (n,))
-            except ValueError:
-                raise ValueError(f"{self.name}: {label} must be one number or {n} numbers "
-                                 f"(one per controlled component), got {value!r}") from None
-            if np.any(np.isnan(array)) or np.any(array < 0):
-                raise ValueError(f"{self.name}: {label} must not be negative, got {value!r}")
-            gains[label] = array
-        return PID(gains["kp"], gains["ki"], gains["kd"], gains["output_limit"])
+        return PID(kp, ki, kd, output_limit, n=len(self.components), owner=self.name)
 
     def set_parameter(self, name: str, value) -> None:
         """Gains (``kp``, ``ki``, ``kd``, ``output_limit``), ``band``, ``dwell_s`` and
@@ -203,13 +192,7 @@ class ServoLeaf(TactileBehaviour):
             gains[name] = value
             self.pid = self._make_pid(**gains)
         elif name == "band":
-            try:
-                band = np.broadcast_to(np.asarray(value, dtype=float), (n,))
-            except ValueError:
-                raise ValueError(f"{self.name}: band must be one number or {n} numbers, got {value!r}") from None
-            if np.any(np.isnan(band)) or np.any(band < 0):
-                raise ValueError(f"{self.name}: band must not be negative, got {value!r}")
-            self.band = [float(b) for b in band]
+            self.band = per_component(value, n, "band", self.name)
         elif name == "dwell_s":
             if not value >= 0:
                 raise ValueError(f"{self.name}: dwell_s must not be negative, got {value!r}")
