@@ -1,6 +1,6 @@
 """The package keeps its layers: folders in the order of one control cycle, a lower layer never
-imports a higher one (import-linter's contract in pyproject.toml), and no module reaches into
-another module's private names."""
+imports a higher one and no package has an import cycle (import-linter's contracts in
+pyproject.toml), and no module reaches into another module's private names."""
 
 from __future__ import annotations
 

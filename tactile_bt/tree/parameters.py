@@ -267,9 +267,7 @@ def _specs(cls) -> dict[str, tuple[Bound, str | None]]:
 def node_label(cls, name: Any) -> str:
     """``force_hold 'hold'``: the YAML type of a node class (its class name when it is not
     registered) and the node's name, for messages."""
-    from tactile_bt.tree.behaviours import DECORATORS, LEAVES  # lazy: that package imports this module
-
-    type_name = next((t for t, c in (*LEAVES.items(), *DECORATORS.items()) if c is cls), cls.__name__)
+    type_name = vars(cls).get("node_type", cls.__name__)  # set when the class is registered
     return f"{type_name} {str(name)!r}" if name is not None else type_name
 
 

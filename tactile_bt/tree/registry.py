@@ -83,3 +83,4 @@ def register_node(type_name: str, cls: type, decorator: bool = False) -> None:
     if not (isinstance(cls, type) and issubclass(cls, py_trees.behaviour.Behaviour)):
         raise TypeError(f"{cls!r} is not a py_trees behaviour class")
     (DECORATORS if decorator else LEAVES)[type_name] = cls
+    cls.node_type = type_name  # the YAML type, for messages

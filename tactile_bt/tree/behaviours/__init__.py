@@ -42,6 +42,9 @@ DECORATORS = {
     "oneshot": OneShot,
 }
 
+for _type_name, _cls in (*LEAVES.items(), *DECORATORS.items()):
+    _cls.node_type = _type_name  # the YAML type, for messages (tactile_bt.tree.parameters.node_label)
+
 __all__ = [
     "TactileBehaviour",
     "ServoLeaf",
