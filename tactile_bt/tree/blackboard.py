@@ -32,7 +32,7 @@ from py_trees.common import Access
 
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "write",
+__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or", "write",
            "write_cycle", "current_pad"]
 
 NAMESPACE = "/tactile"
@@ -46,6 +46,11 @@ _DEFAULT_PAD = PadGeometry()
 def read(key: str) -> Any:
     """The value of a registered blackboard key (full name, e.g. :data:`FEATURES`)."""
     return _STORAGE[key]
+
+
+def read_or(key: str, default: Any = None) -> Any:
+    """The value of a blackboard key, or ``default`` while nobody has written it."""
+    return _STORAGE.get(key, default)
 
 
 def write(key: str, value: Any) -> None:

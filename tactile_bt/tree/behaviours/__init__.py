@@ -8,6 +8,7 @@ Layer: tree.
 """
 
 from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour
+from tactile_bt.tree.behaviours.cable import CableEnd
 from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
@@ -30,6 +31,7 @@ LEAVES = {
     "scan_direction": ScanDirection,
     "stripe_end": StripeEnd,
     "coverage_stalled": CoverageStalled,
+    "cable_end": CableEnd,
     "contact_lost": ContactLost,
     "force_limit": ForceLimit,
 }
@@ -59,6 +61,7 @@ __all__ = [
     "ScanDirection",
     "StripeEnd",
     "CoverageStalled",
+    "CableEnd",
     "ContactLost",
     "ForceLimit",
     "MissionTimeout",

@@ -52,6 +52,9 @@ class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
 
     uses: frozenset[str] = frozenset()
     writes: tuple[str, ...] = ()
+    #: A leaf whose SUCCESS ends an exploration by touch (the end of a cable, no frontier left):
+    #: its feedback message becomes the mission's reason (:func:`tactile_bt.mission.loop.root_outcome`).
+    ends_mission: bool = False
     #: Parameters that shape the leaf at construction and so cannot follow a blackboard key.
     fixed_parameters: frozenset[str] = frozenset({"name"})
 

@@ -17,7 +17,8 @@ from py_trees.common import Status
 from scipy import ndimage
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
+from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 from tactile_bt.perception.features import local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
 
@@ -108,7 +109,8 @@ class RecordContacts(TactileBehaviour):
     point : str
         ``"cop"``: the centre of pressure (Eq. 1). ``"local"``: where an elongated contact
         crosses the pad centre (:func:`~tactile_bt.perception.features.local_contact_point`), which removes
-        the chord bias of the COP on curved lines such as a bent cable; needs the orientation.
+        the chord bias of the COP on curved lines such as a bent cable; needs the orientation
+        (a cycle without one records nothing).
         ``"region"``: every point of the contact imprint (:func:`imprint_points`), each with
         its local pressure; covers a surface as fast as the pad is wide.
     voxel_m : float
@@ -122,6 +124,9 @@ class RecordContacts(TactileBehaviour):
         Surface reconstruction of the cloud at the end of the mission, written to
         ``surface.ply`` (:mod:`tactile_bt.contacts.reconstruct`): ``none``, ``auto``, ``delaunay``,
         ``surface`` or ``hull``.
+    only_when : str
+        A blackboard key (e.g. ``/cable/on_line``, written by ``cable_end``): record only in cycles
+        where its value is true. Empty: every cycle in contact.
     """
 
     uses = frozenset({"cop", "pressure"})
@@ -132,7 +137,8 @@ class RecordContacts(TactileBehaviour):
     def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
                  point: Literal["cop", "local", "region"] = "cop", voxel_m: float = 0.0,
                  region_level: float = 0.5, region_step_m: float = 0.0025,
-                 reconstruct: Literal["none", "auto", "delaunay", "surface", "hull"] = "none") -> None:
+                 reconstruct: Literal["none", "auto", "delaunay", "surface", "hull"] = "none",
+                 only_when: str = "") -> None:
         super().__init__(name)
         if point not in ("cop", "local", "region"):
             raise ValueError(f"{name}: point must be 'cop', 'local' or 'region', got {point!r}")
@@ -140,6 +146,7 @@ class RecordContacts(TactileBehaviour):
             raise ValueError(f"{name}: reconstruct must be none, auto, delaunay, surface or hull, got {reconstruct!r}")
         self.point = point
         self.reconstruct = reconstruct
+        self.only_when = normalise_key(only_when) if only_when else ""
         if point == "local":
             self.uses = frozenset({"cop", "pressure", "orientation"})
         self.set_parameter("min_spacing_m", min_spacing_m)
@@ -189,9 +196,15 @@ class RecordContacts(TactileBehaviour):
             self._in_contact = False
             return Status.RUNNING
         self._in_contact = True
+        if self.only_when and not read_or(self.only_when, False):
+            self._feedback = f"{len(cloud)} contacts, not recording ({self.only_when} is false)"
+            return Status.RUNNING
         T = self.pose
         R = T[:3, :3]
         if self.point == "local":
+            if f.orientation != f.orientation:  # no line direction this cycle: the COP lies on the chord
+                self._feedback = f"{len(cloud)} contacts, not recording (no line direction)"
+                return Status.RUNNING
             cop = f.pad.px_to_m(local_contact_point(f))
         else:
             cop = f.cop

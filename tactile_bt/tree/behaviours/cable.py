@@ -1,0 +1,190 @@
+"""``cable_end``: the end of a cable, found by touch.
+
+While the pad slides along a cable, the cable's imprint is a line through the pad centre along
+the direction of travel that crosses the pad from border to border (centring and edge alignment
+keep it there). Each cycle the leaf judges whether the contact still looks like that:
+
+* **a line**: its tactels are spread along one axis (anisotropy at least ``min_anisotropy``) and
+  cover at most ``max_area_ratio`` of the pad — otherwise the pad lies on the table;
+* **through the centre**: the line's axis passes within ``max_offset_m`` of the pad centre — a
+  contact at the pad's border is the pad's edge on the table;
+* **along the travel**: its orientation is within ``max_turn_rad`` of the direction of travel;
+* **reaching ahead**: its leading end lies at least ``reach_m`` ahead of the pad centre —
+  otherwise the cable ends under the pad.
+
+It writes the judgement to ``on_line_key`` (``record_contacts: {only_when: /cable/on_line}``
+records only then, so no contact that is not on the cable enters the cloud) and succeeds, with
+the reason in its feedback message, once most cycles of the last ``dwell_s`` of mission time
+(or ``lost_s`` without contact) say the line is gone. In a ``parallel`` with ``success_on_one``
+it ends a cable-following branch by touch, whatever the mission's budget.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+from py_trees.common import Access, Status
+
+from tactile_bt.perception.features import wrap_half_pi
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.blackboard import write
+from tactile_bt.tree.parameters import NON_NEGATIVE, between, normalise_key
+
+__all__ = ["CableEnd", "line_reach"]
+
+
+def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: float) -> float:
+    """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
+    ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
+    plus half a tactel (a tactel's far edge). ``-inf`` for an empty mask."""
+    rows, cols = np.nonzero(mask)
+    if rows.size == 0:
+        return -math.inf
+    along = (cols - centre_px[0]) * math.cos(direction_rad) + (rows - centre_px[1]) * math.sin(direction_rad)
+    return float(along.max()) + 0.5
+
+
+def _shape(mask: np.ndarray) -> tuple[float, float]:
+    """Anisotropy ``(l1 - l2) / (l1 + l2)`` (1 for a line, 0 for a disc) and axis angle (rad,
+    from +x towards +y) of the tactel positions of ``mask``."""
+    rows, cols = np.nonzero(mask)
+    if rows.size < 3:
+        return 1.0, math.nan
+    x = cols - cols.mean()
+    y = rows - rows.mean()
+    sxx, syy, sxy = float(x @ x), float(y @ y), float(x @ y)
+    spread = math.hypot(sxx - syy, 2.0 * sxy)
+    total = sxx + syy
+    if total <= 0:
+        return 0.0, math.nan
+    return spread / total, 0.5 * math.atan2(2.0 * sxy, sxx - syy)
+
+
+class CableEnd(TactileBehaviour):
+    """SUCCESS at the end of a cable (see the module docstring); RUNNING while the line goes on.
+
+    Parameters
+    ----------
+    name : str
+        Name of the node.
+    direction_rad : float
+        Direction of travel in the sensor frame, from +x towards +y (rad); ``pi/2`` is the
+        sensor y axis, along which ``guided_slide`` moves the pad in the cable trees.
+    reach_m : float
+        The line has ended when its leading end is less than this far ahead of the pad centre
+        (m; ``3 px`` are three tactels of the pad). The imprint reaches a tactel or two beyond
+        the cable's end (the foam spreads the load), so 15 mm ends the follow with the end of the
+        cable about at the pad centre.
+    max_offset_m : float
+        Largest distance of the line's axis from the pad centre (m).
+    max_turn_rad : float
+        Largest angle between the line and the direction of travel (rad).
+    min_anisotropy : float
+        Below this the contact is no line: ``(l1 - l2) / (l1 + l2)`` of its tactel positions.
+
+    The defaults leave wide margins to what following shows on the shipped cables (from 3 to
+    6 mm thick, soft and stiff, bends down to 51 mm radius): anisotropy at least 0.82, the line
+    within 3° of the travel and 0.7 px of the centre, reaching the leading border.
+    max_area_ratio : float
+        Above this share of the pad's tactels the contact is no line.
+    lost_s : float
+        Time without contact taken as the end (s).
+    dwell_s : float
+        The line is gone when it was judged gone in more than half of the cycles of the last
+        ``dwell_s`` of mission time (a single odd frame decides nothing).
+    on_line_key : str
+        Blackboard key written every cycle: whether the contact is the followed line.
+    """
+
+    uses = frozenset({"pressure", "orientation"})
+    ends_mission = True
+    parameter_bounds = {"reach_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "max_turn_rad": between(0.0, math.pi / 2),
+                        "min_anisotropy": between(0.0, 1.0), "max_area_ratio": between(0.0, 1.0, low_open=True),
+                        "lost_s": NON_NEGATIVE, "dwell_s": NON_NEGATIVE}
+    fixed_parameters = frozenset({"name", "on_line_key"})
+
+    def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
+                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(10.0), min_anisotropy: float = 0.7,
+                 max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
+                 on_line_key: str = "/cable/on_line") -> None:
+        super().__init__(name)
+        self.direction_rad = float(direction_rad)
+        self.reach_m = float(reach_m)
+        self.max_offset_m = float(max_offset_m)
+        self.max_turn_rad = float(max_turn_rad)
+        self.min_anisotropy = float(min_anisotropy)
+        self.max_area_ratio = float(max_area_ratio)
+        self.lost_s = float(lost_s)
+        self.dwell_s = float(dwell_s)
+        self.on_line_key = normalise_key(on_line_key)
+        self._writer = self.attach_blackboard_client(name=f"{name}/on_line")
+        self._writer.register_key(key=self.on_line_key, access=Access.WRITE)
+        self._window: deque[tuple[float, str]] = deque()
+        self._lost_since: float | None = None
+        self.reach_px = math.nan
+
+    def initialise(self) -> None:
+        self._window.clear()
+        self._lost_since = None
+        self.reach_px = math.nan
+        self.feedback_message = ""
+        write(self.on_line_key, False)
+
+    def judge(self, f) -> str:
+        """Why the contact ``f`` is not the followed line (a short word), or ``""`` when it is."""
+        pad = f.pad
+        if f.area > self.max_area_ratio * pad.tactels:
+            return "patch"
+        anisotropy, axis = _shape(f.mask)
+        if anisotropy < self.min_anisotropy or not math.isfinite(axis):
+            return "patch"
+        if abs(wrap_half_pi(axis - self.direction_rad)) > self.max_turn_rad:
+            return "turned"
+        cx, cy = pad.centre_px
+        dx, dy = f.cop_px[0] - cx, f.cop_px[1] - cy
+        if abs(dx * math.sin(axis) - dy * math.cos(axis)) * pad.pitch > self.max_offset_m:
+            return "offset"
+        self.reach_px = line_reach(f.mask, pad.centre_px, self.direction_rad)
+        if self.reach_px * pad.pitch < self.reach_m:
+            return "short"
+        return ""
+
+    def update(self) -> Status:
+        f = self.features_raw
+        now = self.now
+        if not f.in_contact:
+            write(self.on_line_key, False)
+            self._window.clear()
+            if self._lost_since is None:
+                self._lost_since = now
+            if now - self._lost_since >= self.lost_s:
+                self.feedback_message = "contact lost: the pad has left the cable (taken as its end)"
+                return Status.SUCCESS
+            self.feedback_message = f"no contact for {now - self._lost_since:.2f} s"
+            return Status.RUNNING
+        self._lost_since = None
+        verdict = self.judge(f)
+        write(self.on_line_key, not verdict)
+        window = self._window
+        window.append((now, verdict))
+        while window[0][0] < now - self.dwell_s - 1e-9:
+            window.popleft()
+        gone = [v for _, v in window if v]
+        if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * len(gone) <= len(window):
+            self.feedback_message = f"on the line, reaching {self.reach_px:.1f} px ahead" if not verdict else verdict
+            return Status.RUNNING
+        self.feedback_message = "end of cable: " + _REASONS[max(set(gone), key=gone.count)]
+        return Status.SUCCESS
+
+
+#: What each verdict of :meth:`CableEnd.judge` means at the end of a follow.
+_REASONS = {
+    "patch": "the contact is no line any more (the pad is on the table)",
+    "turned": "the contact turned away from the direction of travel",
+    "offset": "the contact left the pad centre (the pad's edge is on the table)",
+    "short": "the line ends under the pad",
+}
