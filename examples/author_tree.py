@@ -13,39 +13,59 @@ import numpy as np
 import py_trees
 
 from tactile_bt import run_mission
-from tactile_bt.tree.behaviours import (AlignEdge, Approach, Centre, ContactLost, ForceHold, GuidedSlide, RecordContacts,
-                                  TactileServo)
+from tactile_bt.tree.behaviours import (AlignEdge, Approach, CableEnd, Centre, ContactLost, ForceHold, GuidedSlide,
+                                       MissionTimeout, RecordContacts, TactileServo)
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def build_tree() -> py_trees.trees.BehaviourTree:
     """The cable-following tree, node for node as trees/cable_follow.yaml."""
+
+    def level(name: str) -> TactileServo:  # P row wx <- dy: level the pad along the cable
+        return TactileServo(name=name, P=(0, 0, 0, 1, 0, 0), kp=(0.0, 1.0, 0.0, 0.0), ki=(0.0, 0.2, 0.0, 0.0),
+                            kd=(0.0, 0.0, 0.0, 0.0))
+
+    approach = Approach(speed_mps=0.01, pressure_pa=800.0, timeout_s=5.0)
+    # Settle on the cable (centred and aligned) before recording anything, at most 3 s.
+    centred_and_aligned = py_trees.composites.Parallel(
+        "centred_and_aligned",
+        policy=py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=True),
+        children=[
+            Centre(target_m=(0.0, 0.0), ki=0.0, converge=True, band=0.2 * 0.005, dwell_s=0.2),
+            AlignEdge(target_rad=np.pi / 2, converge=True, band=np.deg2rad(2.0), dwell_s=0.2),
+        ],
+    )
+    settle = py_trees.composites.Parallel(
+        "settle",
+        policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+        children=[ForceHold(target_pa=2000.0), level("level_while_settling"), centred_and_aligned,
+                  ContactLost(grace_s=0.3)],
+    )
     follow = py_trees.composites.Parallel(
         "follow",
         policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
         children=[
             ForceHold(target_pa=2000.0),  # P row vz
             Centre(target_m=(0.0, 0.0), ki=0.0),  # P rows vx, vy
-            TactileServo(  # P row wx <- dy: level the pad along the cable
-                name="level_along_cable", P=(0, 0, 0, 1, 0, 0),
-                kp=(0.0, 1.0, 0.0, 0.0), ki=(0.0, 0.2, 0.0, 0.0), kd=(0.0, 0.0, 0.0, 0.0),
-            ),
+            level("level_along_cable"),
             AlignEdge(target_rad=np.pi / 2),  # P row wz: the cable along the sensor y axis
             GuidedSlide(twist=(0.0, 0.02, 0.0, 0.0, 0.0, 0.0)),  # V_ext along y
-            RecordContacts(point="local"),
-            ContactLost(grace_s=0.3),
+            CableEnd(),  # success at the end of the cable, by touch
+            RecordContacts(point="local", only_when="/cable/on_line"),
         ],
     )
-    approach = Approach(speed_mps=0.01, pressure_pa=800.0, timeout_s=5.0)
-    root = py_trees.composites.Sequence("cable_follow", memory=True, children=[approach, follow])
+    root = py_trees.composites.Sequence("cable_follow", memory=True, children=[
+        approach,
+        MissionTimeout(settle, name="settle_on_cable", duration_s=3.0, succeed=True),
+        follow,
+    ])
     return py_trees.trees.BehaviourTree(root)
-
 
 if __name__ == "__main__":
     tree = build_tree()
     print(py_trees.display.unicode_tree(tree.root))
-    result = run_mission(tree, ROOT / "sim" / "cable.yaml", duration=10.0, seed=0)
+    result = run_mission(tree, ROOT / "sim" / "cable.yaml", duration=40.0, seed=0)  # ends by touch
     report = result.report
     print(f"status {report['status']} {report['reason']}, {report['real_time_factor']:.1f}x real time")
     for name, m in report["metrics"].items():

@@ -96,12 +96,17 @@ def test_cable_follow_loads_with_the_expected_nodes():
 
 
 def test_the_project_cable_tree_keeps_its_shape():
-    """trees/cable_follow.yaml: approach, then a parallel that records, slides and guards."""
+    """trees/cable_follow.yaml: approach, settle on the cable, then a parallel that slides,
+    records and ends at the end of the cable."""
+    from tactile_bt.tree.behaviours import CableEnd, MissionTimeout
+
     root = load_tree(CABLE_TREE).root
-    approach, follow = root.children
-    assert isinstance(approach, Approach)
+    approach, settle, follow = root.children
+    assert isinstance(approach, Approach) and isinstance(settle, MissionTimeout)
     kinds = {type(c) for c in follow.children}
-    assert {ForceHold, Centre, AlignEdge, GuidedSlide, RecordContacts, ContactLost} <= kinds
+    assert {ForceHold, Centre, AlignEdge, GuidedSlide, RecordContacts, CableEnd} <= kinds
+    recorder = next(c for c in follow.children if isinstance(c, RecordContacts))
+    assert recorder.only_when == "/cable/on_line"
 
 
 def python_cable_follow():

@@ -67,6 +67,10 @@ def _shape(mask: np.ndarray) -> tuple[float, float]:
 class CableEnd(TactileBehaviour):
     """SUCCESS at the end of a cable (see the module docstring); RUNNING while the line goes on.
 
+    The defaults leave wide margins to what following shows on the shipped cables (from 3 to
+    6 mm thick, soft and stiff, bends down to 51 mm radius): anisotropy at least 0.82, the line
+    within 3° of the travel and 0.7 px of the centre, reaching the leading border.
+
     Parameters
     ----------
     name : str
@@ -85,10 +89,6 @@ class CableEnd(TactileBehaviour):
         Largest angle between the line and the direction of travel (rad).
     min_anisotropy : float
         Below this the contact is no line: ``(l1 - l2) / (l1 + l2)`` of its tactel positions.
-
-    The defaults leave wide margins to what following shows on the shipped cables (from 3 to
-    6 mm thick, soft and stiff, bends down to 51 mm radius): anisotropy at least 0.82, the line
-    within 3° of the travel and 0.7 px of the centre, reaching the leading border.
     max_area_ratio : float
         Above this share of the pad's tactels the contact is no line.
     lost_s : float
