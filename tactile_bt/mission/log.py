@@ -1,5 +1,11 @@
 """The time series of a mission, preallocated and filled one control cycle at a time.
 
+When the pad is on the arm, :meth:`MissionLog.track_joints` adds per-cycle series of the arm:
+``joints_rad`` (actual joint angles, rad), ``joint_saturated`` (joints the resolved-rate solve
+held on a position limit, bool) and ``rate_residual`` (commanded minus realised hybrid twist of
+the pad centre, m/s and rad/s, world frame); :mod:`tactile_bt.mission.joints` turns the last two
+into the report's joint-limit warnings.
+
 Layer: mission.
 """
 
@@ -39,6 +45,28 @@ class MissionLog:
         self.position = np.zeros((n, 3))
         self.rotation = np.zeros((n, 3, 3))
         self.joints: np.ndarray | None = None  # (n, 7) rad, when the pad is on the arm
+        self.joint_saturated: np.ndarray | None = None  # (n, 7) bool
+        self.rate_residual: np.ndarray | None = None  # (n, 6) m/s, rad/s
+        #: ``(q_min, q_max)`` of the arm's joints (rad), when they are tracked.
+        self.joint_limits: tuple[np.ndarray, np.ndarray] | None = None
+
+    def track_joints(self, n_joints: int, limits: tuple | None = None) -> None:
+        """Log the arm's joints as well (:meth:`write_joints`); ``limits``: ``(q_min, q_max)`` in rad."""
+        n = self.scalars["t"].shape[0]
+        self.joints = np.zeros((n, n_joints))
+        self.joint_saturated = np.zeros((n, n_joints), dtype=bool)
+        self.rate_residual = np.zeros((n, 6))
+        if limits is not None:
+            self.joint_limits = (np.asarray(limits[0], float).copy(), np.asarray(limits[1], float).copy())
+
+    def write_joints(self, k: int, q, saturated=None, residual=None) -> None:
+        """Store the arm's state of cycle ``k``: joint angles (rad), joints held on a limit, and
+        the unrealised twist of the resolved-rate solve (m/s, rad/s)."""
+        self.joints[k] = q
+        if saturated is not None:
+            self.joint_saturated[k] = saturated
+        if residual is not None:
+            self.rate_residual[k] = residual
 
     def write(self, k: int, t: float, loop, twist_s: np.ndarray, pose: np.ndarray,
                penetration: float = float("nan")) -> None:
@@ -70,4 +98,6 @@ class MissionLog:
         out["rotation"] = self.rotation[:n].copy()
         if self.joints is not None:
             out["joints_rad"] = self.joints[:n].copy()
+            out["joint_saturated"] = self.joint_saturated[:n].copy()
+            out["rate_residual"] = self.rate_residual[:n].copy()
         return out

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.mission.joints import saturation_runs, saturation_warnings
 from tactile_bt.mission.metrics import controlled_feature_metrics, path_error
 from tactile_bt.mission.report import FeatureMetrics, MissionReport
 
@@ -94,6 +95,8 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     recording : str, optional
         The recording a replay ran on.
     warnings : list of str
+        What the run itself noticed; the joint-limit warnings of an arm's log (the runs of
+        ``joint_saturated``, :mod:`tactile_bt.mission.joints`) are appended.
     scan : dict, optional
         Reconstruction method and region (``scan_settings``) of a scan.
     pad : PadGeometry, optional
@@ -102,6 +105,7 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     """
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
+    warnings = [*warnings, *_joint_limit_warnings(arrays, log, scene)]
     if status == "completed" and not np.any(arrays["in_contact"] == 1):
         status, reason = "failure", "no contact was made"
     scene_file = getattr(scene, "file", scene) or ""
@@ -145,3 +149,17 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         figures.update(contact_continuity(arrays["t"], arrays["in_contact"]))
         summary.reconstruction = figures
     return MissionResult(summary=summary, log=arrays, contact_data=contacts.data.copy(), surface=surface)
+
+
+def _joint_limit_warnings(arrays: dict, log, scene) -> list[str]:
+    """The report lines of the runs in which the arm held a joint on its limit (none without an arm)."""
+    saturated = arrays.get("joint_saturated")
+    t = arrays["t"]
+    if saturated is None or not saturated.any():
+        return []
+    rate = getattr(scene, "rate_hz", None)
+    dt = 1.0 / rate if rate else float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    limits = getattr(log, "joint_limits", None) or (None, None)
+    runs = saturation_runs(t, saturated, dt, residual=arrays.get("rate_residual"), joints=arrays.get("joints_rad"),
+                           q_min=limits[0], q_max=limits[1])
+    return saturation_warnings(runs)

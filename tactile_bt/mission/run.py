@@ -136,8 +136,9 @@ def run_mission(
 
     log = MissionLog(n_cycles)
     joints = getattr(world.mount, "joint_angles", None)
+    arm_state = getattr(world.mount, "saturation", None)  # the arm: saturated joints, unrealised twist
     if joints is not None:
-        log.joints = np.zeros((n_cycles, len(joints())))
+        log.track_joints(len(joints()), getattr(world.mount, "limits", None))
     status = "completed"
     reason = ""
     progress_every = max(1, int(scene.rate_hz / 20))
@@ -170,7 +171,7 @@ def run_mission(
             world.move(body_to_spatial(pose, twist_s), dt)
             log.write(k, t, loop, twist_s, pose, world.last_penetration)
             if joints is not None:
-                log.joints[k] = joints()
+                log.write_joints(k, joints(), *(arm_state() if arm_state is not None else ()))
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
             outcome = root_outcome(tree.root)

@@ -39,6 +39,13 @@ iteration on the combined arm and contact stiffness, stable from 1e2 to 1e7 N/m;
 :func:`point_wrench` and :func:`bracket_stiffness`, which this module re-exports) and is
 described there.
 
+Redundancy
+----------
+The seventh joint is used: :meth:`CompliantArm.joint_velocities` adds the null-space motion of
+:class:`~tactile_bt.robot.redundancy.LimitAvoidance` (joints away from their limits, the wrist
+away from its singularity, without disturbing the pad twist), and keeps the diagnostics of the
+solve (:attr:`CompliantArm.last_rate`: which joints it held on a limit, what it could not do).
+
 Layer: robot.
 """
 
@@ -54,7 +61,8 @@ from tactile_bt.robot.equilibrium import (
     bracket_stiffness,
     point_wrench,
 )
-from tactile_bt.robot.kinematics import LWR4Kinematics, Q_READY
+from tactile_bt.robot.kinematics import LWR4Kinematics, Q_READY, RateSolution
+from tactile_bt.robot.redundancy import LimitAvoidance
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = [
@@ -92,9 +100,10 @@ class CompliantArm(EquilibriumSolverMixin):
         How :meth:`step` integrates the compliance (module docstring).
     inertia : (7,) array, optional
         Diagonal joint inertia in kg m^2 for ``mode="dynamic"`` (:data:`DEFAULT_INERTIA`).
-    null_gain : float
-        Rate (1/s) at which the redundancy pulls the equilibrium posture back to ``q_rest``
-        (the initial posture), inside the null space of the task.
+    redundancy : LimitAvoidance or None
+        Null-space objective of the resolved-rate motion (default ``LimitAvoidance()``: joint
+        limits and wrist singularity, :mod:`tactile_bt.robot.redundancy`); ``None``: the
+        minimum-norm solution, no null-space motion.
     ik_damping, sigma_threshold : float
         Damped-least-squares parameters of :meth:`LWR4Kinematics.resolved_rate` (m/rad).
     max_step_m : float
@@ -117,7 +126,7 @@ class CompliantArm(EquilibriumSolverMixin):
         damping=DEFAULT_DAMPING,
         mode: str = "quasi_static",
         inertia=None,
-        null_gain: float = 0.5,
+        redundancy: LimitAvoidance | None = LimitAvoidance(),
         ik_damping: float = 0.05,
         sigma_threshold: float = 0.05,
         max_step_m: float = 1e-3,
@@ -132,7 +141,9 @@ class CompliantArm(EquilibriumSolverMixin):
         if mode not in ("quasi_static", "dynamic"):
             raise ValueError(f"mode must be 'quasi_static' or 'dynamic', got {mode!r}")
         self.mode = mode
-        self.null_gain = float(null_gain)
+        if redundancy is not None and not isinstance(redundancy, LimitAvoidance):
+            raise TypeError(f"redundancy must be a LimitAvoidance or None, got {type(redundancy).__name__}")
+        self.redundancy = redundancy
         self.ik_damping = float(ik_damping)
         self.sigma_threshold = float(sigma_threshold)
         self.max_step_m = float(max_step_m)
@@ -160,8 +171,9 @@ class CompliantArm(EquilibriumSolverMixin):
         q0 = self.kin.clip(self.kin._check_q(q0))
         self.q_eq = q0.copy()
         self.q = q0.copy()
-        self.q_rest = q0.copy()
         self.q_dot = np.zeros(7)
+        #: Diagnostics of the last :meth:`joint_velocities` solve (None before the first).
+        self.last_rate: RateSolution | None = None
         self.wrench_g = np.zeros(6)
         self.last_solve: SettleResult | None = None
         self._H = None
@@ -198,12 +210,19 @@ class CompliantArm(EquilibriumSolverMixin):
             ``V_g = Ad(T_gs) V_s`` (m/s, rad/s).
         dt : float, optional
             Step length (s) for the joint-limit check.
+
+        The null-space motion of :attr:`redundancy` is added; the solve's diagnostics are kept
+        in :attr:`last_rate`.
         """
-        null = self.null_gain * (self.q_rest - self.q_eq)
-        return self.kin.resolved_rate(
+        kin, avoid = self.kin, self.redundancy
+        null = None if avoid is None else avoid.q_dot(self.q_eq, kin.q_min, kin.q_max)
+        sol = kin.resolved_rate(
             self.q_eq, twist_g, dt=dt, damping=self.ik_damping,
             sigma_threshold=self.sigma_threshold, q_dot_null=null,
+            null_speed_max=None if avoid is None else avoid.speed_max, return_info=True,
         )
+        self.last_rate = sol
+        return sol.q_dot
 
     def move(self, twist_g, dt: float, wrench_fn: WrenchFn | None = None, wrench_g=None) -> np.ndarray:
         """Follow a spatial twist for ``dt`` s: :meth:`joint_velocities` then :meth:`step`.

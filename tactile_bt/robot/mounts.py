@@ -18,7 +18,10 @@ field          meaning                                   default
 
 The ideal mount follows the commanded twist exactly. The arm turns it into joint velocities by
 damped resolved rates; they move its equilibrium posture, and contact forces deflect it
-through the joint stiffness (:class:`tactile_bt.robot.arm.CompliantArm`).
+through the joint stiffness (:class:`tactile_bt.robot.arm.CompliantArm`). Its seventh joint
+keeps the others off their limits (:mod:`tactile_bt.robot.redundancy`); what the last step
+could not do (joints held on a limit, the unrealised twist) is :meth:`ArmMount.saturation`,
+which the mission logs every cycle and reports.
 
 Layer: robot.
 """
@@ -97,9 +100,30 @@ class ArmMount:
         """Actual ``T_gs`` (deflected by contact forces)."""
         return self.arm.pose
 
+    @property
+    def limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(q_min, q_max)``: the arm's joint limits (rad)."""
+        return self.arm.kin.q_min.copy(), self.arm.kin.q_max.copy()
+
     def joint_angles(self) -> np.ndarray:
         """Actual joint angles (rad), logged by the mission as ``joints_rad``."""
         return self.arm.q.copy()
+
+    def saturation(self) -> tuple[np.ndarray, np.ndarray]:
+        """What the last :meth:`move` could not do, logged by the mission every cycle.
+
+        Returns
+        -------
+        saturated : (7,) bool ndarray
+            Joints the resolved-rate solve held on a position limit (all False before a move).
+        residual : (6,) ndarray
+            Commanded minus realised hybrid twist of the pad centre (m/s, rad/s, global
+            frame; :attr:`tactile_bt.robot.resolved_rate.RateSolution.residual`).
+        """
+        sol = self.arm.last_rate
+        if sol is None:
+            return np.zeros(7, dtype=bool), np.zeros(6)
+        return sol.saturated.copy(), sol.residual.copy()
 
     def attach(self, contact) -> None:
         """Let ``contact(T_gs) -> (wrench_g, K_x)`` deflect the arm."""

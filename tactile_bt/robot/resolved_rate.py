@@ -16,9 +16,28 @@ null space (after Flacco, De Luca & Khatib 2012, "SNS"): a joint that would leav
 the next step is fixed at the velocity that just reaches the limit, and the remaining joints
 are re-solved for the rest of the twist, so a 7-DOF arm keeps the commanded Cartesian motion
 while one joint rests on its stop.  Joint velocity limits scale the whole vector (the direction
-is kept).  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
+is kept), and the limits are checked on the scaled velocities.  With the velocity limits on, the
+re-solve is *undamped* (pseudo-inverse with a rank cut-off at 1e-9): where the remaining joints
+can make the twist only with large velocities (their Jacobian near singular), the scaling slows
+the whole pad motion down on its commanded path, down to holding the pad, instead of letting
+damping turn the part they cannot make into a motion in another direction.  (That was a 35 to
+55 mm sideways jump of the pad when joint 7 saturated during a turn about the pad normal; see
+docs/scanning.md, "Limits".)  What they cannot do at all (the elbow's direction, with joint 4 on
+its stop) is dropped in the least-squares sense.  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
 centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
 damped (approximate) solution independent of where the base origin lies.
+
+Null space
+----------
+``q_dot_null`` is projected on the null space of the (free columns of the) hybrid Jacobian with
+the right singular vectors of the SVD the damped solve computes anyway, then scaled so that no
+joint moves faster than ``null_speed_max``; so it cannot change ``J q_dot``.  The arm feeds it
+the limit and wrist-singularity avoidance of :mod:`tactile_bt.robot.redundancy`.  While a joint
+is saturated the re-solve keeps the null space of the remaining joints (for the LWR with its
+elbow on a limit, still the swivel).  :attr:`RateSolution.residual` is the part of the
+commanded hybrid twist the joint velocities do not realise (damping near a singularity, a
+saturated joint, the velocity scaling): the mission integrates it into the task-space error of
+a joint-limit warning.
 
 Layer: robot.
 """
@@ -51,6 +70,9 @@ class RateSolution:
         Joints held at the velocity that reaches their position limit.
     scale : float
         Factor (<= 1) applied to respect the velocity limits.
+    residual : (6,) ndarray
+        Commanded minus realised hybrid twist ``[p_dot; w] - J_h q_dot`` of the pad centre
+        (m/s, rad/s, global frame): what the solve could not do.
     """
 
     q_dot: np.ndarray
@@ -58,6 +80,7 @@ class RateSolution:
     sigma_min: float
     saturated: np.ndarray
     scale: float
+    residual: np.ndarray
 
 
 
@@ -76,6 +99,7 @@ class ResolvedRateMixin:
         damping: float = 0.05,
         sigma_threshold: float = 0.05,
         q_dot_null=None,
+        null_speed_max: float | None = None,
         velocity_limits: bool = True,
         return_info: bool = False,
     ):
@@ -100,8 +124,12 @@ class ResolvedRateMixin:
         q_dot_null : (7,) array, optional
             Secondary joint velocity (rad/s), projected into the null space of the Jacobian
             (posture keeping, limit avoidance); it does not disturb the Cartesian motion.
+        null_speed_max : float, optional
+            Largest joint speed (rad/s) of the projected null-space motion (it is scaled down,
+            direction kept); no cap when omitted.
         velocity_limits : bool
             Scale the whole vector down so that ``|q_dot_i| <= qd_max_i`` (direction kept).
+            With it, the re-solve after a saturation is undamped (module docstring).
         return_info : bool
             Return a :class:`RateSolution` instead of the bare vector.
 
@@ -121,6 +149,8 @@ class ResolvedRateMixin:
             null = np.asarray(q_dot_null, float)
             if null.shape != (7,) or not math.isfinite(float(null @ null)):
                 raise ValueError("q_dot_null must be 7 finite numbers")
+        if null_speed_max is not None and not (math.isfinite(null_speed_max) and null_speed_max >= 0.0):
+            raise ValueError(f"null_speed_max must be a finite speed >= 0 rad/s, got {null_speed_max!r}")
         T, J = self.pose_and_jacobian(q)
         S = skew(T[:3, 3])
         Jh = J.copy()
@@ -136,41 +166,59 @@ class ResolvedRateMixin:
             lo = np.minimum((self.q_min - q) / dt, 0.0)
             hi = np.maximum((self.q_max - q) / dt, 0.0)
 
-        qd, lam, smin = damped_least_squares(Jh, Vh, damping, sigma_threshold, null)
+        qd, lam, smin = damped_least_squares(Jh, Vh, damping, sigma_threshold, null, null_speed_max)
         free = np.ones(7, dtype=bool)
-        if not ((qd >= lo).all() and (qd <= hi).all()):
-            # Saturation in the null space: fix the worst offender at its bound, re-solve the rest.
-            for _ in range(7):
-                over = np.where(free, np.maximum(qd - hi, lo - qd), -np.inf)
-                j = int(np.argmax(over))
-                if over[j] <= 1e-12:
-                    break
-                qd[j] = min(max(qd[j], lo[j]), hi[j])
-                free[j] = False
-                if not free.any():
-                    break
-                rest = Vh - Jh[:, ~free] @ qd[~free]
-                qd[free] = damped_least_squares(Jh[:, free], rest, damping, sigma_threshold,
-                                None if null is None else null[free])[0]
+        peak = self._speed_peak(qd) if velocity_limits else 1.0
+        # Saturation in the null space: fix the worst offender at the velocity that reaches its
+        # limit, re-solve the rest of the twist with the other joints; the bounds are checked on
+        # the velocities as they will be applied (after the speed scaling).
+        for _ in range(7):
+            x = qd / peak if peak > 1.0 else qd
+            if free.all() and (x >= lo).all() and (x <= hi).all():
+                break  # the common case: no joint at a limit
+            over = np.where(free, np.maximum(x - hi, lo - x), -np.inf)
+            j = int(np.argmax(over))
+            if over[j] <= 1e-12:
+                break
+            qd[j] = hi[j] if x[j] > hi[j] else lo[j]
+            free[j] = False
+            if not free.any():
+                break
+            rest = Vh - Jh[:, ~free] @ qd[~free]
+            sub = None if null is None else null[free]
+            # With the speed scaling, undamped: exact where the other joints can do it. Damping
+            # would trade the rotation they can hardly make for a translation nobody asked for
+            # (the pad "jumps" sideways); the speed scaling below scales the whole twist
+            # instead, so the pad slows down on its path and holds where the rest is out of
+            # reach. What the remaining joints cannot do at all (the elbow's direction) is
+            # dropped in the least-squares sense.
+            qd[free] = damped_least_squares(Jh[:, free], rest, damping if not velocity_limits else 0.0,
+                                            sigma_threshold, sub, null_speed_max)[0]
+            if velocity_limits:
+                peak = self._speed_peak(qd)
+        scale = 1.0 / peak
+        if scale < 1.0:
+            qd = qd * scale
+        if not free.all():
             qd = np.minimum(np.maximum(qd, lo), hi)
-        scale = 1.0
-        if velocity_limits:
-            peak = float(np.max(np.abs(qd) / self.qd_max))
-            if peak > 1.0:
-                scale = 1.0 / peak
-                qd = qd * scale
         if not math.isfinite(float(qd @ qd)):  # cannot happen with finite inputs; belt and braces
             qd = np.zeros(7)
         if return_info:
-            return RateSolution(qd, lam, smin, ~free, scale)
+            return RateSolution(qd, lam, smin, ~free, scale, Vh - Jh @ qd)
         return qd
 
+    def _speed_peak(self, qd: np.ndarray) -> float:
+        """``max(1, max_i |qd_i| / qd_max_i)``: the factor that brings ``qd`` within the velocity limits."""
+        return max(1.0, float(np.max(np.abs(qd) / self.qd_max)))
 
-def damped_least_squares(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None):
+
+def damped_least_squares(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None,
+                         null_max: float | None = None):
     """Damped least squares ``J^T (J J^T + lambda^2 I)^-1 V`` with the damping schedule.
 
     Returns ``(x, lambda, sigma_min)``; ``null`` (optional) is projected on the null space of
-    ``J`` (the right singular vectors beyond the numerical rank) and added.
+    ``J`` (the right singular vectors beyond the numerical rank), scaled so that its largest
+    component is at most ``null_max`` (when given), and added.
     """
     rows, n = J.shape
     if n == 0:
@@ -181,9 +229,14 @@ def damped_least_squares(J: np.ndarray, V: np.ndarray, lam_max: float, eps: floa
     smin = float(s[-1]) if m == rows else 0.0
     lam2 = lam_max * lam_max * (1.0 - (smin / eps) ** 2) if smin < eps else 0.0
     denom = s * s + lam2
-    gain = np.divide(s, denom, out=np.zeros(m), where=denom > 1e-24)
+    gain = np.divide(s, denom, out=np.zeros(m), where=(denom > 1e-24) & (s > 1e-9))
     x = Vt[:m].T @ (gain * (U[:, :m].T @ V))
     if null is not None:
         N = Vt[int(np.count_nonzero(s > 1e-9)):]
-        x += N.T @ (N @ null)
+        xn = N.T @ (N @ null)
+        if null_max is not None:
+            peak = float(np.max(np.abs(xn))) if xn.size else 0.0
+            if peak > null_max:
+                xn *= null_max / peak
+        x += xn
     return x, math.sqrt(lam2), smin

@@ -1,0 +1,147 @@
+"""The LWR 4's redundancy: the null-space motion keeps the joints off their limits and the wrist
+off its singularity without disturbing the pad, and a saturated joint does not make the pad jump."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from tactile_bt.control.spatial import body_to_spatial
+from tactile_bt.robot.arm import CompliantArm
+from tactile_bt.robot.kinematics import Q_MAX, Q_MIN, Q_READY, LWR4Kinematics
+from tactile_bt.robot.redundancy import LimitAvoidance, joint_margins
+
+DEG = np.pi / 180.0
+REDUNDANT = [0, 1, 2, 4, 5, 6]  # every joint but the elbow, which the swivel cannot move
+#: sim/object.yaml started with rpy_deg [180, 0, 0]: joint 7 is 9° from its limit.
+Q_OBJECT = np.array([28.7, -36.1, -41.5, 90.0, 25.8, -63.8, 161.1]) * DEG
+
+
+@pytest.fixture(scope="module")
+def kin() -> LWR4Kinematics:
+    return LWR4Kinematics()
+
+
+def posture(seed: int, spread: float = 0.8) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.clip(Q_READY + rng.uniform(-spread, spread, 7), Q_MIN + 0.05, Q_MAX - 0.05)
+
+
+def near_a_limit(seed: int) -> np.ndarray:
+    """A seeded posture with one of the redundant joints 3° to 8° from a limit."""
+    rng = np.random.default_rng(100 + seed)
+    q = posture(seed)
+    j = REDUNDANT[seed % len(REDUNDANT)]
+    gap = rng.uniform(3.0, 8.0) * DEG
+    q[j] = Q_MAX[j] - gap if rng.random() < 0.5 else Q_MIN[j] + gap
+    return q
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_null_space_motion_leaves_the_pad_twist_unchanged(kin, seed):
+    q = near_a_limit(seed) if seed % 2 else posture(seed)
+    rng = np.random.default_rng(seed)
+    V = np.concatenate((rng.normal(scale=0.02, size=3), rng.normal(scale=0.2, size=3)))
+    avoid = LimitAvoidance()
+    null = avoid.q_dot(q, kin.q_min, kin.q_max)
+    plain = kin.resolved_rate(q, V, return_info=True)
+    used = kin.resolved_rate(q, V, q_dot_null=null, null_speed_max=avoid.speed_max, return_info=True)
+    J = kin.spatial_jacobian(q)
+    assert plain.damping == 0.0 and used.damping == 0.0 and used.scale == 1.0
+    assert_allclose(J @ plain.q_dot, V, atol=1e-9)
+    assert_allclose(J @ used.q_dot, V, atol=1e-9)
+    assert_allclose(used.residual, 0.0, atol=1e-9)
+    extra = used.q_dot - plain.q_dot
+    assert np.linalg.norm(extra) > 1e-4  # the null term does move the arm ...
+    assert abs(extra[3]) < 1e-9  # ... but never the elbow
+    assert np.max(np.abs(extra)) <= avoid.speed_max + 1e-12
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_pure_null_space_motion_raises_the_smallest_margin(kin, seed):
+    q = near_a_limit(seed)
+    avoid = LimitAvoidance()
+    T0 = kin.fk(q)
+    before = joint_margins(q, Q_MIN, Q_MAX)[REDUNDANT].min()
+    cost = avoid.cost(q, Q_MIN, Q_MAX)
+    dt = 0.01
+    for _ in range(30):
+        null = avoid.q_dot(q, kin.q_min, kin.q_max)
+        q = q + dt * kin.resolved_rate(q, np.zeros(6), dt=dt, q_dot_null=null, null_speed_max=avoid.speed_max)
+    after = joint_margins(q, Q_MIN, Q_MAX)[REDUNDANT].min()
+    assert after > before, (before, after)  # how much depends on the joint's share of the swivel
+    assert avoid.cost(q, Q_MIN, Q_MAX) < cost
+    T = kin.fk(q)
+    assert np.linalg.norm(T[:3, 3] - T0[:3, 3]) < 1e-3  # the pad stays (first-order steps)
+    assert np.linalg.norm(T[:3, :3] - T0[:3, :3]) < 1e-2
+
+
+def test_null_space_motion_turns_the_wrist_away_from_its_singularity(kin):
+    """Slowly: near q6 = 0 the self-motion is mostly joints 5 and 7 turning against each other,
+    which leaves q6 alone (and the 7-joint Jacobian keeps its rank there)."""
+    q = posture(3, spread=1.2)
+    q[5] = 0.25  # 14°, inside the 20° band
+    avoid = LimitAvoidance()
+    T0 = kin.fk(q)
+    cost = avoid.cost(q, Q_MIN, Q_MAX)
+    for _ in range(100):
+        null = avoid.q_dot(q, kin.q_min, kin.q_max)
+        q = q + 0.01 * kin.resolved_rate(q, np.zeros(6), dt=0.01, q_dot_null=null, null_speed_max=avoid.speed_max)
+    assert q[5] > 0.25 + 0.2 * DEG
+    assert avoid.cost(q, Q_MIN, Q_MAX) < cost
+    assert np.linalg.norm(kin.fk(q)[:3, 3] - T0[:3, 3]) < 1e-3
+
+
+def test_limit_avoidance_gradient_matches_the_cost(kin):
+    avoid = LimitAvoidance()
+    for seed in range(3):
+        q = near_a_limit(seed)
+        q[5] = 0.1  # inside the wrist band
+        g = -avoid.q_dot(q, Q_MIN, Q_MAX) / avoid.gain
+        h = 1e-7
+        fd = [(avoid.cost(q + h * e, Q_MIN, Q_MAX) - avoid.cost(q - h * e, Q_MIN, Q_MAX)) / (2 * h) for e in np.eye(7)]
+        assert_allclose(g, fd, rtol=1e-5, atol=1e-6)
+        assert g[3] == 0.0  # the elbow is not in the cost
+
+
+def test_limit_avoidance_rejects_bad_settings():
+    for kwargs in ({"gain": -1.0}, {"speed_max": float("nan")}, {"weights": (1.0,) * 6}, {"weights": (-1.0,) * 7}):
+        with pytest.raises(ValueError):
+            LimitAvoidance(**kwargs)
+    with pytest.raises(TypeError):
+        CompliantArm(redundancy=0.5)
+
+
+def test_the_arm_keeps_joint_7_off_its_limit_while_it_holds(kin):
+    """The object scene's start, 9° from the limit of joint 7: holding still, the swivel frees it."""
+    arm = CompliantArm(kin, q0=Q_OBJECT)
+    T0 = arm.T_gs
+    for _ in range(250):  # 1 s at 250 Hz, no contact, no motion commanded
+        arm.move(np.zeros(6), 0.004)
+    assert Q_MAX[6] - arm.q_eq[6] > 15 * DEG
+    assert np.linalg.norm(arm.T_gs[:3, 3] - T0[:3, 3]) < 1e-3
+    assert not arm.last_rate.saturated.any()
+
+
+def test_a_saturated_wrist_joint_does_not_make_the_pad_jump(kin):
+    """Turning about the pad normal at 1 rad/s drives joint 7 into its stop (the limit of
+    docs/scanning.md); the six others take over until they can't, and the pad stays put:
+    before, the damped re-solve moved it sideways by 60 mm in 0.2 s (365 mm in 2 s)."""
+    arm = CompliantArm(kin, q0=Q_OBJECT)
+    p0 = arm.T_gs[:3, 3].copy()
+    dt, twist_s = 0.004, np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    positions, saturated = [], 0
+    for _ in range(500):
+        arm.move(body_to_spatial(arm.T_gs, twist_s), dt)
+        positions.append(arm.T_gs[:3, 3].copy())
+        saturated += bool(arm.last_rate.saturated[6])
+        assert np.all(arm.q_eq <= Q_MAX) and np.all(arm.q_eq >= Q_MIN)
+    positions = np.array(positions)
+    assert saturated > 200 and arm.q_eq[6] == pytest.approx(Q_MAX[6])
+    step = 50  # 0.2 s
+    assert np.linalg.norm(positions[step:] - positions[:-step], axis=1).max() < 2e-3
+    assert np.linalg.norm(positions - p0, axis=1).max() < 10e-3
+    # what it could not do shows in the residual: the turn, not a translation
+    r = arm.last_rate.residual
+    assert abs(r[3:] @ arm.T_gs[:3, 2]) > 0.5 and np.linalg.norm(r[:3]) < 0.05
