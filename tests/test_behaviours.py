@@ -608,11 +608,25 @@ def test_record_contacts_local_point_sits_on_a_bent_cable_where_the_cop_does_not
     assert distance["local"] < 0.5e-3
 
 
-def test_record_contacts_local_point_falls_back_to_the_cop_without_orientation():
+def test_record_contacts_local_point_records_nothing_without_orientation():
+    """Without a line direction the local point is unknown (the COP of a curved line lies on
+    its chord): the cycle records nothing rather than a point beside the line."""
     h = LeafHarness(RecordContacts(point="local"), dt=DT)
-    f = make_features(cop_px=(9.0, 6.0), orientation=float("nan"))
-    h.tick(f)
-    assert_allclose(h.contacts.points[0, :2], f.cop)
+    h.tick(make_features(cop_px=(9.0, 6.0), orientation=float("nan")))
+    assert len(h.contacts) == 0
+    h.tick(make_features(cop_px=(9.0, 6.0), orientation=0.3))
+    assert len(h.contacts) == 1
+
+
+def test_record_contacts_only_when_a_blackboard_key_is_true():
+    h = LeafHarness(RecordContacts(only_when="/cable/on_line"), dt=DT)
+    h.tick(make_features())
+    assert len(h.contacts) == 0  # the key was never written: not recording
+    h.set("/cable/on_line", True)
+    h.tick(make_features())
+    h.set("/cable/on_line", False)
+    h.tick(make_features())
+    assert len(h.contacts) == 1
 
 
 def test_record_contacts_rejects_an_unknown_point_kind():

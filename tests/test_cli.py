@@ -11,11 +11,11 @@ SCENE = str(ROOT / "sim" / "cable.yaml")
 
 
 def test_run_writes_outputs_and_applies_overrides(tmp_path, capsys):
-    code = main(["run", TREE, "--scene", SCENE, "--duration", "1", "--seed", "2",
+    code = main(["run", TREE, "--scene", SCENE, "--duration", "2", "--seed", "2",
                  "--set", "objects.1.stiffness=1e5", "--out", str(tmp_path)])
     assert code == 0
     report = json.loads((tmp_path / "report.json").read_text())
-    assert report["seed"] == 2 and report["ticks"] == 250
+    assert report["seed"] == 2 and report["ticks"] == 500
     for name in ("log.npz", "errors.png", "contacts.ply"):
         assert (tmp_path / name).exists()
     assert "x real time" in capsys.readouterr().out

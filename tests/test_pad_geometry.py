@@ -159,10 +159,12 @@ def test_record_contacts_maps_the_imprint_through_the_features_pad():
     assert_allclose(points[:, :2].mean(axis=0), ((15.0 - 9.5) * PITCH, 0.0), atol=0.3 * PITCH)
     assert np.all(np.abs(points[:, :2]) <= (0.04, 0.024))
     assert np.all(pressure > 0)
-    # the recorder carries the imprint's local COP through the pad: point = T_gs . cop
+    # the recorder carries a line's local contact point through the pad: point = T_gs . cop
+    line = contact_frame(cop_px=(15.0, 5.5), force_n=2.0, orientation_rad=np.pi / 2, length_px=6.0, width_px=2.0,
+                         pad=SMALL)
     leaf = RecordContacts(point="local")
     h = LeafHarness(leaf, pad=SMALL)
-    h.tick(frame=image)
+    h.tick(frame=line)
     assert len(h.contacts) == 1
     assert_allclose(h.contacts.points[0, :2], h.features_raw.cop, atol=0.3 * PITCH)
 

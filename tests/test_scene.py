@@ -45,7 +45,7 @@ def turning_and_min_radius(path):
 def test_cable_scene_loads(cable_scene):
     s = cable_scene
     assert s.name == "cable"
-    assert s.rate_hz == 250.0 and s.duration_s == 20.0 and s.seed == 0
+    assert s.rate_hz == 250.0 and s.duration_s == 40.0 and s.seed == 0
     assert [type(o) for o in s.objects] == [Table, Cable]
     assert s.cable is s.objects[1]
     assert s.cable.radius == pytest.approx(0.003)
