@@ -122,7 +122,7 @@ def _interrupted(what: str) -> int:
 
 
 def _cmd_paper(args) -> int:
-    from tactile_bt.experiments.paper import format_tables, plot_roll, run_paper, run_roll, write_paper
+    from tactile_bt.experiments.paper import EXPERIMENTS, format_tables, plot_roll, run_paper, run_roll, write_paper
     from tactile_bt.progress import Progress
 
     out = Path(args.out)
@@ -130,7 +130,7 @@ def _cmd_paper(args) -> int:
     progress = Progress(0, unit="runs", label="paper runs")
     try:
         with start() as executor:
-            print(f"{5 * args.trials} runs on {executor.label}", file=sys.stderr)
+            print(f"{len(EXPERIMENTS) * args.trials} runs on {executor.label}", file=sys.stderr)
             results = run_paper(trials=args.trials, duration=args.duration, executor=executor,
                                 progress=lambda done, total: progress(done, total))
     except KeyboardInterrupt:

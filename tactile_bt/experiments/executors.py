@@ -146,6 +146,7 @@ class DaskExecutor(Executor):
 
         self._cluster = None
         self._own_client = client is None
+        self._quieted: dict[str, int] = {}
         if client is not None:
             self.client = client
         elif address is not None:
@@ -166,6 +167,12 @@ class DaskExecutor(Executor):
                                                                "dashboard": False,  # its HTTP server: any
                                                                "dashboard_address": "127.0.0.1:0"})  # free port
             self.client = Client(self._cluster, set_as_default=False)
+        # Faults (a lost scheduler, a dead worker) come back as results and end in one line or an
+        # error row; Dask's own logging of them would print tracebacks in this process.
+        if self._own_client:
+            self._quieted = {name: logging.getLogger(name).level for name in ("distributed", "distributed.client")}
+        for name in self._quieted:
+            logging.getLogger(name).setLevel(logging.CRITICAL)
         info = self.client.scheduler_info()
         threads = sum(w.get("nthreads", 1) for w in info.get("workers", {}).values())
         processes_n = len(info.get("workers", {}))
@@ -175,6 +182,8 @@ class DaskExecutor(Executor):
         else:
             self.label = (f"the Dask cluster at {self.client.scheduler.address} ({processes_n} worker"
                           f"{'s' if processes_n != 1 else ''}, {threads} thread{'s' if threads != 1 else ''})")
+            if not processes_n:
+                self.label += "; the runs wait for a worker to join"
 
     def run(self, fn, items):
         from concurrent.futures import CancelledError
@@ -212,13 +221,20 @@ class DaskExecutor(Executor):
                     pass
 
     def close(self) -> None:
-        if self._own_client:
-            try:
-                self.client.close()
-            finally:
-                if self._cluster is not None:
-                    self._cluster.close()
-                    self._cluster = None
+        import logging
+
+        try:
+            if self._own_client:
+                try:
+                    self.client.close()
+                finally:
+                    if self._cluster is not None:
+                        self._cluster.close()
+                        self._cluster = None
+        finally:
+            for name, level in self._quieted.items():
+                logging.getLogger(name).setLevel(level)
+            self._quieted = {}
 
 
 def make_executor(workers: int | None = None, scheduler: str | None = None,

@@ -42,8 +42,9 @@ from typing import Any, Callable
 from tactile_bt.errors import OutputPathError, TactileBtError, YamlError
 from tactile_bt.yamlutil import Located, load_located, plain
 
-__all__ = ["SweepSpec", "Run", "SweepResult", "load_spec", "plan", "execute", "flatten_report", "ResultsTable",
-           "run_sweep", "plot_summary", "format_summary", "metric_columns", "RunTimeout", "SPEC_FIELDS"]
+__all__ = ["SweepSpec", "Run", "SweepResult", "load_spec", "plan", "execute", "error_row", "flatten_report",
+           "ResultsTable", "run_sweep", "plot_summary", "format_summary", "metric_columns", "RunTimeout",
+           "SPEC_FIELDS"]
 
 #: Top-level fields of a spec.
 SPEC_FIELDS = ("name", "description", "tree", "scene", "scenes", "duration", "seeds", "grid", "set", "timeout_s")
