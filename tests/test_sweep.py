@@ -16,7 +16,7 @@ from tactile_bt.cli import main
 from tactile_bt.errors import CommandLineError, YamlError
 from tactile_bt.experiments import executors
 from tactile_bt.experiments.executors import InProcess, make_executor, run_all
-from tactile_bt.experiments.sweep import RESULTS, SUMMARY_PNG, load_spec, plan, run_sweep
+from tactile_bt.experiments.sweep import RESULTS, SUMMARY_PNG, format_summary, load_spec, plan, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
 #: Columns that differ between two runs of the same mission: measured wall time.
@@ -109,6 +109,7 @@ def test_tree_parameters_and_several_scenes_in_the_grid(tmp_path):
         seeds: {{first: 3, count: 1}}
         grid:
           tree.force_hold.target_pa: [1500, 2 kPa]
+          mount.rpy_deg: [[180, 0, 0]]
         set:
           mount.damping: 0.3
         """)
@@ -119,8 +120,13 @@ def test_tree_parameters_and_several_scenes_in_the_grid(tmp_path):
     assert {r["seed"] for r in rows} == {"3"}
     assert {Path(r["scene"]).name for r in rows} == {"pen.yaml", "toy_box.yaml"}
     run = next(r for r in result.runs if dict(r.values)["tree.force_hold.target_pa"] == 1500)
-    assert run.params == (("force_hold.target_pa", 1500),) and run.overrides == ("mount.damping=0.3",)
+    assert run.params == (("force_hold.target_pa", 1500),)
+    assert run.overrides == ("mount.damping=0.3", "mount.rpy_deg=[180, 0, 0]")
     assert all((tmp_path / "out" / "runs" / r["run_id"] / "report.json").exists() for r in rows)
+    assert {r["mount.rpy_deg"] for r in rows} == {"[180, 0, 0]"}
+    summary = format_summary(result).splitlines()
+    assert summary[0].startswith("| scene | tree.force_hold.target_pa | mount.rpy_deg | runs | errors |")
+    assert len(summary) == 2 + 4 and "| 1500 | [180, 0, 0] | 1 | 0 |" in summary[2]
 
 
 # --------------------------------------------------------------------------- faults

@@ -759,12 +759,13 @@ def format_summary(result: SweepResult, max_metrics: int = 4) -> str:
     keys = spec.grid_keys
     head = ["scene", *keys, "runs", "errors", *shown]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    groups: dict[tuple, list[dict]] = {}
+    groups: dict[str, tuple[Run, list[dict]]] = {}
     for row in result.rows:
         run = by_id[row["run_id"]]
-        groups.setdefault((run.scene_label, run.values), []).append(row)
-    for (scene, values), members in groups.items():
-        cells = [scene, *(_label(v) for _, v in values), str(len(members)),
+        key = json.dumps([run.scene_label, run.values], default=str)  # values may be lists
+        groups.setdefault(key, (run, []))[1].append(row)
+    for run, members in groups.values():
+        cells = [run.scene_label, *(_label(v) for _, v in run.values), str(len(members)),
                  str(sum(m.get("status") == "error" for m in members))]
         for column in shown:
             numbers = [_float(m.get(column)) for m in members]
