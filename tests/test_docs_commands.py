@@ -81,8 +81,8 @@ MEASURED_S = {
     'tactile-bt tree trees/force_hold.yaml --params --param force_hold.target_pa="1.5 kPa"': 0.4,
     # README.md, Studies: a local Dask cluster of one worker per core (2 here), then the rerun
     # that skips every run; docs/studies.md: the same in this process
-    "tactile-bt sweep examples/sweep_pen.yaml --out out/sweep_pen": 4.0,
-    "tactile-bt sweep examples/sweep_pen.yaml --out out/sweep_pen --workers 1": 3.3,
+    "tactile-bt sweep studies/pen_stiffness.yaml --out out/pen_stiffness": 4.0,
+    "tactile-bt sweep studies/pen_stiffness.yaml --out out/pen_stiffness --workers 1": 3.3,
     # sim/README.md (my_scene.yaml: a copy of sim/pen.yaml, see PLACEHOLDER_FILES)
     "tactile-bt run trees/force_hold.yaml --scene my_scene.yaml --duration 2 --out /tmp/check": 1.8,
 }
@@ -96,7 +96,7 @@ NOT_RUN = {
     "tactile-bt view out/scan_box": "opens a window (no --png)",
     "tactile-bt sweep bad.yaml": "the doc shows the error but not bad.yaml itself; tests/test_sweep.py checks "
                                  "these messages",
-    "tactile-bt sweep examples/sweep_pen.yaml --out out/sweep_cluster --scheduler": "needs a running "
+    "tactile-bt sweep studies/pen_stiffness.yaml --out out/sweep_cluster --scheduler": "needs a running "
         "'dask scheduler' and 'dask worker'; tests/test_sweep.py runs sweeps on an in-process LocalCluster",
 }
 

@@ -351,3 +351,10 @@ def test_only_the_executors_import_dask():
     importing = [p.relative_to(package).as_posix() for p in package.rglob("*.py")
                  if re.search(r"^\s*(import|from)\s+(dask|distributed)\b", p.read_text(encoding="utf-8"), re.M)]
     assert importing == ["experiments/executors.py"]
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "studies").glob("*.yaml")), ids=lambda p: p.name)
+def test_every_shipped_spec_is_valid(path, monkeypatch):
+    monkeypatch.chdir(REPO)  # the shipped specs name files from the repository's root
+    spec = load_spec(path)
+    assert plan(spec) and spec.seeds
