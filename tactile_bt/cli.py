@@ -104,11 +104,40 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _note(message: str) -> None:
+    print(f"note: {message}", file=sys.stderr)
+
+
+def _executor(args):
+    """A function that starts the executor of ``--workers`` / ``--scheduler``."""
+    from tactile_bt.experiments.executors import make_executor
+
+    return lambda: make_executor(args.workers, args.scheduler, note=_note)
+
+
+def _interrupted(what: str) -> int:
+    lead = "\n" if sys.stderr.isatty() else ""  # below a progress bar
+    print(f"{lead}interrupted: {what}", file=sys.stderr)
+    return 130
+
+
 def _cmd_paper(args) -> int:
-    from tactile_bt.experiments.paper import format_tables, plot_roll, run_paper, run_roll, write_paper
+    from tactile_bt.experiments.paper import EXPERIMENTS, format_tables, plot_roll, run_paper, run_roll, write_paper
+    from tactile_bt.progress import Progress
 
     out = Path(args.out)
-    results = run_paper(trials=args.trials, duration=args.duration, workers=args.workers)
+    start = _executor(args)
+    progress = Progress(0, unit="runs", label="paper runs")
+    try:
+        with start() as executor:
+            print(f"{len(EXPERIMENTS) * args.trials} runs on {executor.label}", file=sys.stderr)
+            results = run_paper(trials=args.trials, duration=args.duration, executor=executor,
+                                progress=lambda done, total: progress(done, total))
+    except KeyboardInterrupt:
+        progress.close()
+        return _interrupted("nothing was written")
+    finally:
+        progress.close()
     files = write_paper(results, out)
     files.append(plot_roll(run_roll(), out))
     print(format_tables(results))
@@ -118,12 +147,65 @@ def _cmd_paper(args) -> int:
 
 def _cmd_stability(args) -> int:
     from tactile_bt.experiments.stability import format_table, run_stability
+    from tactile_bt.progress import Progress
 
     started = time.perf_counter()
-    results = run_stability(Path(args.out), rates=not args.no_rates)
+    start = _executor(args)
+    progress = Progress(0, unit="runs", label="stability runs")
+    try:
+        with start() as executor:
+            print(f"running on {executor.label}", file=sys.stderr)
+            results = run_stability(Path(args.out), rates=not args.no_rates, executor=executor,
+                                    progress=lambda done, total: progress(done, total))
+    except KeyboardInterrupt:
+        progress.close()
+        return _interrupted("nothing was written")
+    finally:
+        progress.close()
     print(format_table(results["cases"], results["rates"]))
     print(f"written to {args.out} in {time.perf_counter() - started:.0f} s")
     return 0 if all(r["ok"] for r in results["cases"]) else 1
+
+
+def _cmd_sweep(args) -> int:
+    from tactile_bt.experiments.sweep import RESULTS, format_summary, load_spec, run_sweep
+    from tactile_bt.progress import Progress
+
+    spec = load_spec(args.spec)  # before anything runs: errors with file:line:column
+    start = _executor(args)
+    out = Path(args.out)
+    progress = Progress(0, unit="runs", label="sweep")
+    n_runs = len(spec.scenes) * len(spec.combinations()) * len(spec.seeds)
+
+    def on_start(todo: int, skipped: int, label: str) -> None:
+        if skipped:
+            print(f"skipped {skipped} of {n_runs} runs: already in {out / RESULTS}"
+                  + (" (--retry-errors runs the errors again)" if not args.retry_errors else ""), file=sys.stderr)
+        if todo:
+            print(f"{spec.name}: {todo} run{'s' if todo != 1 else ''} on {label}", file=sys.stderr)
+        progress.total = float(todo)
+
+    try:
+        result = run_sweep(spec, out, executor=start, keep_runs=args.keep_runs, retry_errors=args.retry_errors,
+                           progress=progress, on_start=on_start)
+    except KeyboardInterrupt:
+        progress.close()
+        return _interrupted(f"the finished runs are in {out / RESULTS}; the same command goes on from there")
+    finally:
+        progress.close()
+    print(format_summary(result))
+    print(f"{len(result.runs)} runs: {result.ran} ran now, {result.skipped} skipped (already in {result.table}), "
+          f"{result.errors} with errors" + (f", {result.lost} lost by the cluster (run again)" if result.lost else ""))
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
+    if result.other_rows:
+        print(f"note: {result.table} also holds {result.other_rows} rows of runs this spec no longer has "
+              "(the spec or its files changed); they are kept and left out of the summary", file=sys.stderr)
+    written = [str(result.table)] + ([str(result.plot)] if result.plot else [])
+    if args.keep_runs:
+        written.append(f"{out / 'runs'}/")
+    print(f"written: {', '.join(written)} in {result.wall_time_s:.0f} s")
+    return 0 if not result.errors and not result.lost else 1
 
 
 def _cmd_accuracy(args) -> int:
@@ -165,6 +247,27 @@ def _cmd_accuracy(args) -> int:
         fig.savefig(args.png, dpi=110)
         print(f"figure written to {args.png}")
     return 0
+
+
+def _scheduler_address(text: str) -> str:
+    from tactile_bt.experiments.executors import check_scheduler_address
+
+    try:
+        return check_scheduler_address(text)
+    except TactileBtError as exc:
+        raise argparse.ArgumentTypeError(str(exc).split(": ", 1)[1]) from None
+
+
+def _executor_options(parser: argparse.ArgumentParser) -> None:
+    """``--workers N`` | ``--scheduler ADDRESS`` of the studies."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=positive_int, default=None, metavar="N",
+                       help="1: run in this process; N: a local Dask cluster of N processes (default: one per "
+                            "core; in this process when Dask is not installed)")
+    group.add_argument("--scheduler", type=_scheduler_address, default=None, metavar="ADDRESS",
+                       help="run on a running Dask cluster, e.g. tcp://127.0.0.1:8786 ('dask scheduler' and "
+                            "'dask worker ADDRESS --nthreads 1' on each machine; they need tactile_bt and the "
+                            "same files at the same paths)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -238,14 +341,29 @@ def build_parser() -> argparse.ArgumentParser:
     paper.add_argument("--trials", type=positive_int, default=20, help="seeded trials per experiment (default: 20)")
     paper.add_argument("--duration", type=positive_float, default=22.0,
                        help="mission time per trial in s (default: 22)")
-    paper.add_argument("--workers", type=positive_int, default=None, help="processes (default: one per core)")
+    _executor_options(paper)
     paper.add_argument("--out", default="out/paper", help="output directory (default: out/paper)")
     paper.set_defaults(func=_cmd_paper)
 
     stab = sub.add_parser("stability", help="stiffness sweep, extreme cases and control rates")
     stab.add_argument("--out", default="out/stability", help="output directory (default: out/stability)")
     stab.add_argument("--no-rates", action="store_true", help="skip the cable mission at 100-1900 Hz")
+    _executor_options(stab)
     stab.set_defaults(func=_cmd_stability)
+
+    sweep = sub.add_parser("sweep", help="run a tree over scenes, seeds and a grid of overrides, here or on a "
+                                         "Dask cluster")
+    sweep.add_argument("spec", metavar="SPEC.yaml", help="the sweep: tree, scene(s), seeds, duration, grid "
+                                                        "(see docs/studies.md)")
+    sweep.add_argument("--out", required=True, metavar="DIR",
+                       help="output directory: results.csv (one row per run), summary.png; a rerun skips "
+                            "the runs already in DIR/results.csv")
+    _executor_options(sweep)
+    sweep.add_argument("--keep-runs", action="store_true",
+                       help="also write each run's outputs (report.json, log.npz, errors.png) to DIR/runs/RUN_ID/")
+    sweep.add_argument("--retry-errors", action="store_true",
+                       help="run the runs whose row in DIR/results.csv is an error again")
+    sweep.set_defaults(func=_cmd_sweep)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
     acc.add_argument("--trials", type=positive_int, default=20, help="synthetic contacts per angle (default: 20)")

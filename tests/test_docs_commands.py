@@ -79,6 +79,10 @@ MEASURED_S = {
     "tactile-bt run examples/slide_and_record.yaml --scene sim/cable.yaml --blackboard /goal/pressure=1800"
     " --out out/slide": 3.2,
     'tactile-bt tree trees/force_hold.yaml --params --param force_hold.target_pa="1.5 kPa"': 0.4,
+    # README.md, Studies: a local Dask cluster of one worker per core (2 here), then the rerun
+    # that skips every run; docs/studies.md: the same in this process
+    "tactile-bt sweep studies/pen_stiffness.yaml --out out/pen_stiffness": 4.0,
+    "tactile-bt sweep studies/pen_stiffness.yaml --out out/pen_stiffness --workers 1": 3.3,
     # sim/README.md (my_scene.yaml: a copy of sim/pen.yaml, see PLACEHOLDER_FILES)
     "tactile-bt run trees/force_hold.yaml --scene my_scene.yaml --duration 2 --out /tmp/check": 1.8,
 }
@@ -90,6 +94,10 @@ NOT_RUN = {
     "tactile-bt sensor stream /dev/ttyACM0": "needs a tactile module on a serial port",
     "tactile-bt sensor record /dev/ttyACM0": "needs a tactile module on a serial port",
     "tactile-bt view out/scan_box": "opens a window (no --png)",
+    "tactile-bt sweep bad.yaml": "the doc shows the error but not bad.yaml itself; tests/test_sweep.py checks "
+                                 "these messages",
+    "tactile-bt sweep studies/pen_stiffness.yaml --out out/sweep_cluster --scheduler": "needs a running "
+        "'dask scheduler' and 'dask worker'; tests/test_sweep.py runs sweeps on an in-process LocalCluster",
 }
 
 # Commands the docs say run until Ctrl-C or SIGTERM: (seconds to let them run, signal).

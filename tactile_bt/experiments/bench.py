@@ -4,7 +4,9 @@
   ``label`` + ``regionprops`` implementation of the same features, on the same frames;
 * one control cycle (calibration, features, smoothing, tree tick, summed twist) against the
   526 µs frame period of the sensor at 1.9 kHz;
-* the closed-loop cable mission against real time at 250 Hz, with where the time goes.
+* the closed-loop cable mission against real time at 250 Hz, with where the time goes;
+* sweep throughput: runs per second of a small ``tactile-bt sweep`` in this process and on a
+  local Dask cluster of 2 worker processes, and their ratio.
 
 Times are the median of repeated runs (``time.perf_counter``); nothing here asserts a time.
 
@@ -20,7 +22,7 @@ import numpy as np
 
 from tactile_bt import defaults
 
-__all__ = ["run_bench", "format_bench", "bench_reconstruction"]
+__all__ = ["run_bench", "format_bench", "bench_reconstruction", "bench_sweep"]
 
 ROOT = Path(__file__).resolve().parents[2]
 TREE = ROOT / "trees" / "cable_follow.yaml"
@@ -221,6 +223,54 @@ def bench_reconstruction(n: int = 20000, methods=("delaunay", "surface", "hull",
     return out
 
 
+def _warm_up() -> None:
+    """One short mission, so that a worker has imported and compiled what the runs use."""
+    from tactile_bt.mission.run import run_mission
+
+    run_mission(ROOT / "trees" / "force_hold.yaml", ROOT / "sim" / "pen.yaml", duration=0.1, seed=0)
+
+
+def bench_sweep(runs: int = 8, duration: float = 2.0, workers: int = 2, repeats: int = 2) -> dict:
+    """Throughput of a sweep: ``runs`` force-hold missions of ``duration`` s on the pen (seeds
+    0, 1, ...), in this process and on a local Dask cluster of ``workers`` processes.
+
+    The cluster's start and one warm-up mission per worker are not timed: the figure is the
+    steady rate of a long study, the best of ``repeats`` (the machine may be shared). Without
+    Dask only the first figure is measured.
+    """
+    from tactile_bt.experiments.executors import DaskExecutor, InProcess, dask_available
+    from tactile_bt.experiments.sweep import SweepSpec, execute, plan
+
+    tree, scene = ROOT / "trees" / "force_hold.yaml", ROOT / "sim" / "pen.yaml"
+    spec = SweepSpec(file="<bench>", tree=str(tree), tree_label="trees/force_hold.yaml",
+                     scenes=(("sim/pen.yaml", str(scene)),), seeds=tuple(range(runs)), duration=duration)
+    todo = plan(spec)
+
+    def rate(executor) -> float:
+        best = 0.0
+        for _ in range(max(1, repeats)):
+            started = time.perf_counter()
+            rows = [row for _, row, _ in executor.run(execute, todo)]
+            elapsed = time.perf_counter() - started
+            failed = [r for r in rows if r["status"] == "error"]
+            if failed:
+                raise RuntimeError(f"a bench run failed: {failed[0]['reason']}")
+            best = max(best, len(rows) / elapsed)
+        return best
+
+    _warm_up()
+    out = {"runs": int(runs), "mission_s": float(duration), "workers": int(workers), "repeats": int(repeats),
+           "runs_per_s_1_worker": rate(InProcess())}
+    if not dask_available():
+        out.update(runs_per_s_n_workers=None, speedup=None, note="dask is not installed")
+        return out
+    with DaskExecutor(workers=workers) as executor:
+        executor.client.run(_warm_up)
+        out["runs_per_s_n_workers"] = rate(executor)
+    out["speedup"] = out["runs_per_s_n_workers"] / out["runs_per_s_1_worker"]
+    return out
+
+
 def run_bench(quick: bool = False) -> dict:
     """All speed figures; ``quick`` uses fewer repetitions and a shorter mission."""
     repeats = 3 if quick else 7
@@ -231,6 +281,7 @@ def run_bench(quick: bool = False) -> dict:
         "cable_mission_ideal_mount": bench_mission(5.0 if quick else 20.0, ideal=True),
         "mesh_scene": bench_mesh_scene(),
         "reconstruction": bench_reconstruction(n=20000, repeats=1 if quick else 3),
+        "sweep": bench_sweep(runs=4 if quick else 8, repeats=1 if quick else 2),
     }
 
 
@@ -255,4 +306,14 @@ def format_bench(figures: dict) -> str:
         g = figures["mesh_scene"]
         lines.append(f"mesh scene load     {g['first_load_s']:.2f} s first ({g['sdf_grid_build_s']:.2f} s SDF grid of "
                      f"{g['grid_points']} points), {g['cached_load_s'] * 1e3:.0f} ms cached")
+    if "sweep" in figures:
+        w = figures["sweep"]
+        line = (f"sweep throughput    {w['runs']} runs of {w['mission_s']:g} s: {w['runs_per_s_1_worker']:.2f} runs/s "
+                f"with 1 worker")
+        if w.get("runs_per_s_n_workers") is not None:
+            line += (f", {w['runs_per_s_n_workers']:.2f} runs/s with {w['workers']} Dask workers "
+                     f"→ {w['speedup']:.2f}x")
+        else:
+            line += f" ({w.get('note', 'no Dask figure')})"
+        lines.append(line)
     return "\n".join(lines)

@@ -11,8 +11,6 @@ Layer: experiments.
 from __future__ import annotations
 
 import json
-import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -80,15 +78,21 @@ def _trial(args) -> dict:
 
 
 def run_paper(trials: int = 20, duration: float = 22.0, workers: int | None = None,
-              experiments=EXPERIMENTS) -> dict:
+              experiments=EXPERIMENTS, executor=None, progress=None) -> dict:
     """Run every experiment ``trials`` times; returns per-experiment averages and one log each.
 
-    The mission runs ``duration`` s so that the 20 s window after the approach is complete.
+    The mission runs ``duration`` s so that the 20 s window after the approach is complete. The
+    runs go to ``executor`` (:mod:`tactile_bt.experiments.executors`; default: the one of
+    ``workers``, as ``--workers``); ``progress(done, total)`` is called as they finish.
     """
+    from tactile_bt.experiments.executors import make_executor, run_all
+
     jobs = [(exp, seed, duration, seed == 0) for exp in experiments for seed in range(trials)]
-    workers = workers or min(len(jobs), os.cpu_count() or 1)
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        runs = list(pool.map(_trial, jobs))
+    if executor is None:
+        with make_executor(workers) as own:
+            runs = run_all(_trial, jobs, own, progress)
+    else:
+        runs = run_all(_trial, jobs, executor, progress)
     results = {}
     for exp in experiments:
         mine = [r for r in runs if r["key"] == exp.key]

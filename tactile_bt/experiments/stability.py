@@ -168,25 +168,42 @@ def run_case(case: Case) -> dict:
     return row
 
 
-def run_rates(rates=(100, 250, 500, 1000, 1900), duration: float = 20.0) -> list[dict]:
-    """The cable mission at several control rates: accuracy against wall-clock time."""
+#: Control rates of the cable mission (Hz) and its mission time (s).
+RATES = (100, 250, 500, 1000, 1900)
+RATE_DURATION_S = 20.0
+
+
+@dataclass(frozen=True)
+class RateRun:
+    """The cable mission at one control rate."""
+
+    rate_hz: float
+    duration: float = RATE_DURATION_S
+
+
+def run_rate(rate: RateRun) -> dict:
+    """The cable mission at one control rate: accuracy and wall-clock time."""
     from tactile_bt.mission.run import run_mission
 
-    rows = []
-    for rate in rates:
-        r = run_mission(ROOT / "trees/cable_follow.yaml", ROOT / "sim/cable.yaml", duration=duration, seed=0,
-                        overrides=[f"rate_hz={rate}"])
-        rep = r.summary
-        path = rep.path_error_m
-        rows.append({
-            "rate_hz": rate, "status": rep.status, "wall_time_s": rep.wall_time_s,
-            "real_time_factor": rep.real_time_factor, "path_error_mean_mm": path["mean"] * 1e3,
-            "path_error_max_mm": path["max"] * 1e3, "followed_mm": path["followed_m"] * 1e3,
-            "pressure_std": rep.metrics["pressure_pa"].std / TARGET,
-            "pressure_steady_state_error": rep["metrics"]["pressure_pa"]["steady_state_error"] / TARGET,
-            "finite": _finite(r.log),
-        })
-    return rows
+    r = run_mission(ROOT / "trees/cable_follow.yaml", ROOT / "sim/cable.yaml", duration=rate.duration, seed=0,
+                    overrides=[f"rate_hz={rate.rate_hz}"])
+    rep = r.summary
+    path = rep.path_error_m
+    return {
+        "rate_hz": rate.rate_hz, "status": rep.status, "wall_time_s": rep.wall_time_s,
+        "real_time_factor": rep.real_time_factor, "path_error_mean_mm": path["mean"] * 1e3,
+        "path_error_max_mm": path["max"] * 1e3, "followed_mm": path["followed_m"] * 1e3,
+        "pressure_std": rep.metrics["pressure_pa"].std / TARGET,
+        "pressure_steady_state_error": rep.metrics["pressure_pa"].steady_state_error / TARGET,
+        "finite": _finite(r.log),
+    }
+
+
+def run_rates(rates=RATES, duration: float = RATE_DURATION_S, executor=None) -> list[dict]:
+    """The cable mission at several control rates: accuracy against wall-clock time."""
+    from tactile_bt.experiments.executors import run_all
+
+    return run_all(run_rate, [RateRun(rate, duration) for rate in rates], executor)
 
 
 def plot_rates(rows: list[dict], path: Path) -> Path:
@@ -246,11 +263,36 @@ def format_table(cases: list[dict], rates: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_stability(out: Path, rates: bool = True) -> dict:
-    """Every case; writes stability.md, stability.json and error_vs_runtime.png into ``out``."""
+def _run_item(item: "Case | RateRun") -> dict:
+    """One run of the stability study, on any executor."""
+    return run_rate(item) if isinstance(item, RateRun) else run_case(item)
+
+
+def _cycles(item: "Case | RateRun") -> float:
+    """Control cycles of a run: what its wall time grows with."""
+    if isinstance(item, RateRun):
+        return item.duration * item.rate_hz
+    rate = next((float(o.split("=", 1)[1]) for o in item.overrides if o.startswith("rate_hz=")), defaults.RATE_HZ)
+    return item.duration * rate
+
+
+def run_stability(out: Path, rates: bool = True, executor=None, progress=None) -> dict:
+    """Every case; writes stability.md, stability.json and error_vs_runtime.png into ``out``.
+
+    The runs go to ``executor`` (:mod:`tactile_bt.experiments.executors`; default: this
+    process), the longest first; ``progress(done, total)`` is called as they finish. The tables
+    keep the cases' order."""
+    from tactile_bt.experiments.executors import run_all
+
     out.mkdir(parents=True, exist_ok=True)
-    cases = [run_case(c) for c in (*stiffness_cases(), *extreme_cases())]
-    rate_rows = run_rates() if rates else []
+    items = [*stiffness_cases(), *extreme_cases(), *([RateRun(rate) for rate in RATES] if rates else [])]
+    longest_first = sorted(range(len(items)), key=lambda i: -_cycles(items[i]))
+    done = run_all(_run_item, [items[i] for i in longest_first], executor, progress)
+    rows: list = [None] * len(items)
+    for i, row in zip(longest_first, done):
+        rows[i] = row
+    n_cases = len(stiffness_cases()) + len(extreme_cases())
+    cases, rate_rows = rows[:n_cases], rows[n_cases:]
     (out / "stability.md").write_text(format_table(cases, rate_rows))
     (out / "stability.json").write_text(json.dumps({"cases": cases, "rates": rate_rows}, indent=2, default=float) + "\n")
     if rate_rows:
