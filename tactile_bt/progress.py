@@ -40,6 +40,7 @@ class Progress:
         self.every_s = float(every_s)
         self.delay_s = float(delay_s)
         self.stream = sys.stderr if stream is None else stream
+        self._digits = 1 if unit == "s" else 0  # seconds with a decimal, counts (runs) whole
         self.start = time.perf_counter()
         self._last_line = self.start
         self._bar = None
@@ -58,7 +59,8 @@ class Progress:
 
                 self._bar = tqdm(total=self.total, unit=self.unit, desc=self.label, file=self.stream,
                                  leave=True, dynamic_ncols=True,
-                                 bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} {unit} "
+                                 bar_format=f"{{desc}}: {{percentage:3.0f}}%|{{bar}}| {{n:.{self._digits}f}}/"
+                                            f"{{total:.{self._digits}f}} {{unit}} "
                                             "[{elapsed}<{remaining}{postfix}]")
             self._bar.n = float(done)
             if note:
@@ -68,7 +70,8 @@ class Progress:
             self._last_line = now
             share = 100.0 * done / self.total if self.total > 0 else 100.0
             extra = f", {note}" if note else ""
-            print(f"{self.label}: {done:.1f}/{self.total:.1f} {self.unit} ({share:.0f} %) after "
+            d = self._digits
+            print(f"{self.label}: {done:.{d}f}/{self.total:.{d}f} {self.unit} ({share:.0f} %) after "
                   f"{now - self.start:.0f} s{extra}", file=self.stream, flush=True)
 
     def close(self) -> None:
