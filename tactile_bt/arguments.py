@@ -22,7 +22,8 @@ from typing import Callable, Iterator
 
 from tactile_bt.errors import OutputPathError
 
-__all__ = ["validator", "positive_float", "positive_int", "nonnegative_int", "check_output", "one_line_warnings"]
+__all__ = ["validator", "positive_float", "positive_int", "nonnegative_int", "check_output", "check_output_dir",
+           "one_line_warnings"]
 
 
 def validator(convert: Callable[[str], float], ok: Callable[[float], bool], expected: str) -> Callable[[str], float]:
@@ -76,6 +77,25 @@ def check_output(path: str | os.PathLike, force: bool = False, option: str | Non
     elif not os.access(parent, os.W_OK | os.X_OK):
         raise OutputPathError(f"{label}: directory {parent} is not writable")
     return p
+
+
+def check_output_dir(path: str | os.PathLike, option: str = "--out") -> Path:
+    """Create the output directory ``path`` (and its parents) before any work is done.
+
+    Raises :class:`OutputPathError` naming ``option`` and the path when it is a file, lies under
+    a file, or cannot be created.
+    """
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise OutputPathError(f"{option} {out}: is a file, not a directory (choose another {option})")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        blocker = next((p for p in out.parents if p.exists() and not p.is_dir()), out.parent)
+        raise OutputPathError(f"{option} {out}: cannot create the directory, {blocker} is a file") from None
+    except OSError as exc:
+        raise OutputPathError(f"{option} {out}: cannot create the directory ({exc.strerror})") from None
+    return out
 
 
 @contextlib.contextmanager

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt.arguments import check_output, nonnegative_int, one_line_warnings, positive_float, positive_int
+from tactile_bt.arguments import check_output, check_output_dir, nonnegative_int, one_line_warnings, positive_float, positive_int
 from tactile_bt.errors import TactileBtError
 
 __all__ = ["main"]
@@ -125,7 +125,7 @@ def _cmd_paper(args) -> int:
     from tactile_bt.experiments.paper import EXPERIMENTS, format_tables, plot_roll, run_paper, run_roll, write_paper
     from tactile_bt.progress import Progress
 
-    out = Path(args.out)
+    out = check_output_dir(args.out)  # before the runs: a path that cannot be written loses nothing
     start = _executor(args)
     progress = Progress(0, unit="runs", label="paper runs")
     try:
@@ -149,6 +149,7 @@ def _cmd_stability(args) -> int:
     from tactile_bt.experiments.stability import format_table, run_stability
     from tactile_bt.progress import Progress
 
+    check_output_dir(args.out)  # before the runs: a path that cannot be written loses nothing
     started = time.perf_counter()
     start = _executor(args)
     progress = Progress(0, unit="runs", label="stability runs")
@@ -173,7 +174,7 @@ def _cmd_sweep(args) -> int:
 
     spec = load_spec(args.spec)  # before anything runs: errors with file:line:column
     start = _executor(args)
-    out = Path(args.out)
+    out = check_output_dir(args.out)
     progress = Progress(0, unit="runs", label="sweep")
     n_runs = len(spec.scenes) * len(spec.combinations()) * len(spec.seeds)
 

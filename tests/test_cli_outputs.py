@@ -80,6 +80,9 @@ def test_unwritable_out_fails_before_the_mission(make_path, tmp_path, capsys, mo
 
 
 @pytest.mark.parametrize("argv", [
+    ["paper", "--trials", "1", "--out", "BAD"],
+    ["stability", "--no-rates", "--out", "BAD/sub"],
+    ["sweep", str(ROOT / "studies" / "pen_stiffness.yaml"), "--workers", "1", "--out", "BAD"],
     ["view", "DIR", "--png", "BAD/x.png"],
     ["accuracy", "--trials", "1", "--png", "BAD/x.png"],
     ["tree", str(ROOT / "trees" / "force_hold.yaml"), "--dot", "BAD/x.dot"],

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from tactile_bt.contacts.ply import write_ply
-from tactile_bt.errors import OutputPathError
+from tactile_bt.arguments import check_output_dir
 from tactile_bt import defaults
 
 __all__ = ["OUTPUT_FILES", "prepare_output_dir", "plot_errors", "write_outputs"]
@@ -31,16 +31,7 @@ def prepare_output_dir(out: str | Path) -> Path:
     runs. Raises :class:`OutputPathError` naming the path when it is a file or lies under one,
     or cannot be created.
     """
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise OutputPathError(f"{out}: is a file, not a directory (choose another --out)")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except (FileExistsError, NotADirectoryError):
-        parent = next((p for p in out.parents if p.exists() and not p.is_dir()), out.parent)
-        raise OutputPathError(f"{out}: cannot create the directory, {parent} is a file") from None
-    except OSError as exc:
-        raise OutputPathError(f"{out}: cannot create the directory ({exc.strerror})") from None
+    out = check_output_dir(out)
     for name in OUTPUT_FILES:
         stale = out / name
         if stale.is_file() or stale.is_symlink():
