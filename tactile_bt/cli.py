@@ -121,23 +121,33 @@ def _interrupted(what: str) -> int:
     return 130
 
 
-def _cmd_paper(args) -> int:
-    from tactile_bt.experiments.paper import EXPERIMENTS, format_tables, plot_roll, run_paper, run_roll, write_paper
+def _study(args, label: str, run):
+    """``run(executor, progress)`` on the executor that ``--workers``/``--scheduler`` choose, with
+    a progress bar of its runs; returns what ``run`` returns."""
     from tactile_bt.progress import Progress
 
-    out = check_output_dir(args.out)  # before the runs: a path that cannot be written loses nothing
     start = _executor(args)
-    progress = Progress(0, unit="runs", label="paper runs")
+    progress = Progress(0, unit="runs", label=label)
     try:
         with start() as executor:
-            print(f"{len(EXPERIMENTS) * args.trials} runs on {executor.label}", file=sys.stderr)
-            results = run_paper(trials=args.trials, duration=args.duration, executor=executor,
-                                progress=lambda done, total: progress(done, total))
-    except KeyboardInterrupt:
-        progress.close()
-        return _interrupted("nothing was written")
+            return run(executor, lambda done, total: progress(done, total))
     finally:
         progress.close()
+
+
+def _cmd_paper(args) -> int:
+    from tactile_bt.experiments.paper import EXPERIMENTS, format_tables, plot_roll, run_paper, run_roll, write_paper
+
+    out = check_output_dir(args.out)  # before the runs: a path that cannot be written loses nothing
+
+    def run(executor, progress):
+        print(f"{len(EXPERIMENTS) * args.trials} runs on {executor.label}", file=sys.stderr)
+        return run_paper(trials=args.trials, duration=args.duration, executor=executor, progress=progress)
+
+    try:
+        results = _study(args, "paper runs", run)
+    except KeyboardInterrupt:
+        return _interrupted("nothing was written")
     files = write_paper(results, out)
     files.append(plot_roll(run_roll(), out))
     print(format_tables(results))
@@ -147,22 +157,18 @@ def _cmd_paper(args) -> int:
 
 def _cmd_stability(args) -> int:
     from tactile_bt.experiments.stability import format_table, run_stability
-    from tactile_bt.progress import Progress
 
-    check_output_dir(args.out)  # before the runs: a path that cannot be written loses nothing
+    out = check_output_dir(args.out)  # before the runs: a path that cannot be written loses nothing
     started = time.perf_counter()
-    start = _executor(args)
-    progress = Progress(0, unit="runs", label="stability runs")
+
+    def run(executor, progress):
+        print(f"running on {executor.label}", file=sys.stderr)
+        return run_stability(out, rates=not args.no_rates, executor=executor, progress=progress)
+
     try:
-        with start() as executor:
-            print(f"running on {executor.label}", file=sys.stderr)
-            results = run_stability(Path(args.out), rates=not args.no_rates, executor=executor,
-                                    progress=lambda done, total: progress(done, total))
+        results = _study(args, "stability runs", run)
     except KeyboardInterrupt:
-        progress.close()
         return _interrupted("nothing was written")
-    finally:
-        progress.close()
     print(format_table(results["cases"], results["rates"]))
     print(f"written to {args.out} in {time.perf_counter() - started:.0f} s")
     return 0 if all(r["ok"] for r in results["cases"]) else 1
