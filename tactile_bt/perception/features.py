@@ -8,7 +8,8 @@ Pipeline of :func:`extract`:
 
 1. Tactels that are NaN, infinite or negative are replaced by 0 and counted.
 2. Binarise ``image > threshold`` (strictly greater) and label connected components with
-   8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force).
+   8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force, then the
+   region whose first tactel comes first in row-major order).
 3. Force ``f = sum f_ij`` and the force-weighted centre of pressure over ``R`` (Eq. 1),
    pressure ``p = f / (|R| pitch^2)`` in Pa (Eq. 2), with the pitch of the pad
    (:class:`~tactile_bt.sense.geometry.PadGeometry`) the image comes from.
@@ -22,7 +23,7 @@ force-weighted covariance of ``R``, the anisotropy ``(l1 - l2) / (l1 + l2)`` mus
 blob gives ~0; a straight 2-tactel-wide, 3-tactel-long bar already gives 0.45; a single tactel
 (``l1 = l2 = 0``) gives NaN.
 
-Speed: steps 1-3 and the moments of step 4 are one compiled pass over the image
+Speed: steps 1-3 and the moments of step 4 are one compiled kernel, a few passes over the image
 (:func:`tactile_bt.perception.kernels.largest_region`, numba, cached on disk); a 16x16 frame
 costs a few microseconds, most of them in building the result. ``tests/test_kernels.py`` checks
 it against the ``scipy.ndimage.label`` + moment-basis implementation it replaced.

@@ -1,7 +1,7 @@
 """Compiled loops of the feature extraction on one small force image (numba, nopython).
 
-Two kernels, each one pass (or three) over the ``rows × cols`` tactels without a temporary
-array, where numpy would spend most of its time in per-call overhead on 256 values:
+Two kernels, each a few passes over the ``rows × cols`` tactels without a temporary array,
+where numpy would spend most of its time in per-call overhead on 256 values:
 
 * :func:`largest_region` — sanitise the image, label the regions above the threshold with
   8-connectivity, pick the largest (ties: larger force, then the one met first in row-major
