@@ -1,9 +1,8 @@
 """Reference implementations the compiled kernels are checked against (``tests/test_kernels.py``).
 
 These are the numpy/scipy versions the package used before its hot paths were compiled, kept
-verbatim (only renamed): calibration inverse, feature extraction (``scipy.ndimage.label`` with
-8-connectivity, the moments as one matrix product with a ``[1, x, y, x², xy, y²]`` basis) and
-the local contact point. They are slow and obviously right; the package's versions must give
+verbatim: feature extraction (``scipy.ndimage.label`` with 8-connectivity, the moments as one
+matrix product with a ``[1, x, y, x², xy, y²]`` basis) and the local contact point. They are slow and obviously right; the package's versions must give
 the same answers to the tolerances stated in the tests.
 """
 
@@ -18,22 +17,10 @@ from tactile_bt import defaults
 from tactile_bt.perception.features import MIN_ANISOTROPY, ContactFeatures, hough_orientation
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["force_from_raw", "extract", "local_contact_point", "central_moments"]
+__all__ = ["extract", "local_contact_point", "central_moments"]
 
 _HALF_PI = 0.5 * math.pi
 _EIGHT = np.ones((3, 3), dtype=bool)
-
-
-def force_from_raw(calibration, raw) -> np.ndarray:
-    """``TactelCalibration.force_from_raw`` as numpy ufuncs on the calibration's arrays."""
-    u_sat = (calibration.saturation_raw - calibration.offset) / calibration.span
-    u = (np.asarray(raw, dtype=float) - calibration.offset) / calibration.span
-    np.fmax(u, 0.0, out=u)
-    np.fmin(u, u_sat, out=u)
-    np.negative(u, out=u)
-    np.log1p(u, out=u)
-    u *= calibration.force_scale
-    return np.negative(u, out=u)
 
 
 def _basis(shape):

@@ -3,7 +3,6 @@
 
 Tolerances (the kernels sum in another order than numpy's matrix products, nothing else):
 
-* calibration inverse: ``rtol 1e-12`` per tactel (zero stays exactly zero);
 * contact region, area, invalid-tactel count and sanitised image: exact;
 * force, pressure, centre of pressure and local contact point: ``rtol 1e-12`` (COP and point
   also ``atol 1e-12`` px);
@@ -18,7 +17,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -27,7 +25,6 @@ from numpy.testing import assert_allclose, assert_array_equal
 import oracles
 from tactile_bt import defaults
 from tactile_bt.perception.features import MIN_ANISOTROPY, extract, local_contact_point, wrap_half_pi
-from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.sense.geometry import PadGeometry
 
 PAD = (defaults.ROWS, defaults.COLS)
@@ -84,43 +81,6 @@ def assert_same_features(ours, ref, min_anisotropy=MIN_ANISOTROPY):
         assert abs(wrap_half_pi(a - b)) <= mu_tol / spread + 1e-12, (a, b, spread)
     elif not math.isnan(b):  # Hough on the same image and region
         assert a == b
-
-
-# ---------------------------------------------------------------------------- calibration
-@settings(max_examples=150, deadline=None)
-@given(
-    st.integers(0, 2**32 - 1),
-    arrays(np.float64, PAD, elements=st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
-                                                st.floats(0.0, defaults.ADC_MAX))),
-)
-def test_force_from_raw_matches_numpy(seed, raw):
-    cal = TactelCalibration.random(np.random.default_rng(seed))
-    ours = cal.force_from_raw(raw)
-    assert ours.shape == PAD and np.all(np.isfinite(ours)) and np.all(ours >= 0)
-    assert_allclose(ours, oracles.force_from_raw(cal, raw), rtol=RTOL, atol=0)
-
-
-@pytest.mark.parametrize("raw", [
-    np.arange(3 * 256, dtype=float).reshape(3, *PAD) * 5.0,  # a stack of frames
-    np.full(PAD, 900, dtype=np.uint16),  # the ADC's integers
-    np.asfortranarray(np.linspace(0, 4095, 256).reshape(PAD)),  # another memory layout
-    np.linspace(0, 4095, 512).reshape(16, 32)[:, ::2],  # a strided view
-    np.float64(2000.0),  # one value for every tactel
-    np.linspace(0, 4095, 16),  # one row, broadcast
-])
-def test_force_from_raw_layouts_and_broadcasting(raw):
-    cal = TactelCalibration.random(np.random.default_rng(3))
-    ours = cal.force_from_raw(raw)
-    expected = oracles.force_from_raw(cal, raw)
-    assert ours.shape == expected.shape
-    assert_allclose(ours, expected, rtol=RTOL, atol=0)
-
-
-def test_force_from_raw_of_a_read_only_frame():
-    cal = TactelCalibration.nominal()
-    raw = np.full(PAD, 1000.0)
-    raw.setflags(write=False)
-    assert_allclose(cal.force_from_raw(raw), oracles.force_from_raw(cal, raw), rtol=RTOL)
 
 
 # ---------------------------------------------------------------------------- features

@@ -20,10 +20,6 @@ at :data:`NOMINAL_SATURATION_PA` = 10 kPa on one tactel of the pad
 on the paper's 25 mm^2 tactel.  There the slope at zero force is ~25 000 counts/N (1 count ~ 0.04 mN);
 at 0.1 N the response is 18 % below the tangent (the "linear-ish" range), at 0.25 N it is 37 % below.
 
-Speed: the inverse runs once per control cycle on every tactel, as one compiled loop
-(numba, cached on disk) instead of six numpy calls; ``tests/test_kernels.py`` checks it against
-the numpy version.
-
 Layer: sense.
 """
 
@@ -33,7 +29,6 @@ import math
 import os
 
 import numpy as np
-from numba import njit
 
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
@@ -81,7 +76,7 @@ class TactelCalibration:
         If the arrays are not 2-D, differ in shape, are not finite or out of range.
     """
 
-    __slots__ = ("offset", "span", "force_scale", "_raw_sat", "_u_sat", "_f_sat", "_flat")
+    __slots__ = ("offset", "span", "force_scale", "_raw_sat", "_u_sat", "_f_sat")
 
     def __init__(self, offset, span, force_scale) -> None:
         arrays = [np.array(a, dtype=float) for a in (offset, span, force_scale)]
@@ -110,9 +105,6 @@ class TactelCalibration:
         self._raw_sat = np.minimum(float(defaults.ADC_MAX), self.offset + SPAN_FRACTION * self.span)
         self._u_sat = (self._raw_sat - self.offset) / self.span
         self._f_sat = -self.force_scale * np.log1p(-self._u_sat)
-        # The inverse's per-tactel constants (offset, span, u_sat, force_scale) as rows of one
-        # writable array: the one signature the compiled kernel is built for.
-        self._flat = np.stack([a.ravel() for a in (self.offset, self.span, self._u_sat, self.force_scale)])
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -199,16 +191,14 @@ class TactelCalibration:
         ``raw <= offset`` (and NaN, -inf) give 0; ``raw >= saturation_raw`` (and +inf) give
         :attr:`saturation_force`.  The result is always finite and >= 0.
         """
-        raw = np.asarray(raw, dtype=float)
-        shape = self.offset.shape
-        if raw.shape[-2:] != shape:
-            raw = np.broadcast_to(raw, np.broadcast_shapes(raw.shape, shape))
-        if not (raw.flags.c_contiguous and raw.flags.writeable):
-            raw = np.array(raw, order="C")
-        out = np.empty(raw.shape)
-        n = self.offset.size
-        _inverse(raw.reshape(-1, n), self._flat, out.reshape(-1, n))
-        return out
+        u = (np.asarray(raw, dtype=float) - self.offset) / self.span
+        # fmax/fmin drop NaN in favour of the bound: NaN -> 0, +inf -> saturation, -inf -> 0.
+        np.fmax(u, 0.0, out=u)
+        np.fmin(u, self._u_sat, out=u)
+        np.negative(u, out=u)
+        np.log1p(u, out=u)
+        u *= self.force_scale
+        return np.negative(u, out=u)
 
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | os.PathLike) -> None:
@@ -254,22 +244,6 @@ class TactelCalibration:
             f"TactelCalibration(shape={self.shape}, offset~{self.offset.mean():.1f} counts, "
             f"saturation~{self._f_sat.mean():.3f} N)"
         )
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _inverse(raw, constants, out):
-    """``out = -force_scale log1p(-clip((raw - offset) / span, 0, u_sat))`` on frames of flat
-    tactels ``(frames, tactels)``, with ``constants`` the rows offset, span, u_sat, force_scale
-    per tactel; NaN reads as 0 (the lower bound), as numpy's ``fmax`` does."""
-    frames, tactels = raw.shape
-    for k in range(frames):
-        for i in range(tactels):
-            u = (raw[k, i] - constants[0, i]) / constants[1, i]
-            if not u > 0.0:
-                u = 0.0
-            elif u > constants[2, i]:
-                u = constants[2, i]
-            out[k, i] = -(np.log1p(-u) * constants[3, i])
 
 
 def _pad_of(rows: int | None, cols: int | None, pad: PadGeometry | None) -> PadGeometry:
