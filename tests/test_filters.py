@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -109,3 +110,18 @@ def test_smoother_keeps_angle_average_when_orientation_missing():
     truth = 0.5 * math.atan2(np.sin(angles).mean(), np.cos(angles).mean())
     assert_allclose(out.orientation, truth, atol=1e-12)
     assert_allclose(out.pressure, np.mean([a.pressure, a.pressure, b.pressure]), rtol=1e-12)
+
+
+def test_smoothed_features_keep_every_other_field():
+    """The smoother builds its result field by field: every field but the three smoothed ones
+    is the frame's own object."""
+    smoother = FeatureSmoother(3)
+    frames = [extract(line_contact((7.0 + 0.1 * k, 8.0), 0.3, 8.0, 2.0, 1.0 + k)) for k in range(3)]
+    for f in frames:
+        g = smoother(f)
+    smoothed = {"force", "pressure", "orientation"}
+    for field in dataclasses.fields(ContactFeatures):
+        if field.name not in smoothed:
+            assert getattr(g, field.name) is getattr(f, field.name), field.name
+    assert g.force == pytest.approx(np.mean([h.force for h in frames]))
+    assert g.pressure == pytest.approx(np.mean([h.pressure for h in frames]))

@@ -172,28 +172,48 @@ class PID:
 
     def update(self, error, dt: float) -> list[float]:
         """Advance by ``dt`` seconds with ``error`` (sequence of n floats); return ``u`` (list)."""
-        u = [0.0] * self.n
-        for i in range(self.n):
+        n = self.n
+        u = [0.0] * n
+        kp, ki_, kd, limits, imaxes = self.kp, self.ki, self.kd, self.output_limit, self._imax
+        integrals, previous = self._integral, self._previous
+        for i in range(n):
             e = float(error[i])
             if e != e:  # NaN: hold the state, command nothing
                 continue
-            prev = self._previous[i]
-            p_and_d = self.kp[i] * e + (self.kd[i] * (e - prev) / dt if prev == prev else 0.0)
-            ki, lim = self.ki[i], self.output_limit[i]
-            integral = self._integral[i] + e * dt
+            prev = previous[i]
+            p_and_d = kp[i] * e + (kd[i] * (e - prev) / dt if prev == prev else 0.0)
+            ki, lim = ki_[i], limits[i]
+            integral = integrals[i] + e * dt
             v = p_and_d + ki * integral
             if abs(p_and_d) >= lim or (v > lim and e > 0) or (v < -lim and e < 0):
                 # Anti-windup: no integration while the proportional and derivative terms alone
                 # saturate the output (a large error: the integral would only overshoot later),
                 # nor into saturation.
-                integral = self._integral[i]
-            imax = self._imax[i]
-            integral = min(max(integral, -imax), imax)
-            self._integral[i] = integral
-            self._previous[i] = e
+                integral = integrals[i]
+            imax = imaxes[i]
+            if integral < -imax:  # min(max(integral, -imax), imax), without two calls
+                integral = -imax
+            elif integral > imax:
+                integral = imax
+            integrals[i] = integral
+            previous[i] = e
             v = p_and_d + ki * integral
-            u[i] = min(max(v, -lim), lim)
+            u[i] = -lim if v < -lim else (lim if v > lim else v)
         return u
+
+
+def _limited(values, linear_limit: float, angular_limit: float) -> tuple[float, ...]:
+    """Six floats with the linear and the angular part scaled into their norm limits."""
+    vx, vy, vz, wx, wy, wz = values
+    v = math.sqrt(vx * vx + vy * vy + vz * vz)
+    w = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if v > linear_limit:
+        s = linear_limit / v
+        vx, vy, vz = vx * s, vy * s, vz * s
+    if w > angular_limit:
+        s = angular_limit / w
+        wx, wy, wz = wx * s, wy * s, wz * s
+    return vx, vy, vz, wx, wy, wz
 
 
 def limit_twist(twist: np.ndarray, linear_limit: float, angular_limit: float) -> np.ndarray:
@@ -202,13 +222,7 @@ def limit_twist(twist: np.ndarray, linear_limit: float, angular_limit: float) ->
     Direction is kept; the limits are in m/s and rad/s.
     """
     out = np.array(twist, dtype=float)
-    vx, vy, vz, wx, wy, wz = out.tolist()
-    v = math.sqrt(vx * vx + vy * vy + vz * vz)
-    w = math.sqrt(wx * wx + wy * wy + wz * wz)
-    if v > linear_limit:
-        out[:3] *= linear_limit / v
-    if w > angular_limit:
-        out[3:] *= angular_limit / w
+    out[:] = _limited(out.tolist(), linear_limit, angular_limit)
     return out
 
 
@@ -244,8 +258,12 @@ class ServoCommand:
         if len(values) != 6 or not math.isfinite(sum(values)):
             raise ValueError(f"{source}: a twist must be 6 finite numbers, got {twist!r}")
         total = self._sum
-        for i in range(6):
-            total[i] += values[i]
+        total[0] += values[0]
+        total[1] += values[1]
+        total[2] += values[2]
+        total[3] += values[3]
+        total[4] += values[4]
+        total[5] += values[5]
         previous = self._parts.get(source)
         self._parts[source] = values if previous is None else [p + v for p, v in zip(previous, values)]
 
@@ -260,4 +278,4 @@ class ServoCommand:
 
     def twist(self) -> np.ndarray:
         """The summed sensor-frame twist of this cycle, within the twist limits."""
-        return limit_twist(np.array(self._sum), self.linear_limit, self.angular_limit)
+        return np.array(_limited(self._sum, self.linear_limit, self.angular_limit))

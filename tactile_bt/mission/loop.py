@@ -23,7 +23,7 @@ from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import TactileBehaviour
 from tactile_bt.tree.blackboard import cycle_writer, write_cycle
 
-__all__ = ["ControlLoop", "root_outcome", "failure_reason", "success_reason"]
+__all__ = ["ControlLoop", "tick", "root_outcome", "failure_reason", "success_reason"]
 
 
 class ControlLoop:
@@ -70,7 +70,7 @@ class ControlLoop:
         self.writer = cycle_writer("mission", self.command, self.contacts, self.dt, pad=self.pad)
         tree.setup()
         leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
-        self._orientation_leaves = [b for b in leaves if "orientation" in b.uses]
+        self._orientation_leaves = tuple(b for b in leaves if "orientation" in b.uses)
         self.features_raw = None
         self.features = None
         #: With ``profile=True``: accumulated seconds in perception (calibrate, extract,
@@ -86,22 +86,37 @@ class ControlLoop:
             t0 = clock()
         image = self.calibration.force_from_raw(raw)
         # Orientation only when a running leaf uses it (a leaf starting this tick sees NaN once).
-        needs_orientation = any(b.status == Status.RUNNING for b in self._orientation_leaves)
-        f_raw = extract(image, self.threshold, self.orientation_method if needs_orientation else None,
-                        pad=self.pad)
+        method = None
+        for b in self._orientation_leaves:
+            if b.status == Status.RUNNING:
+                method = self.orientation_method
+                break
+        f_raw = extract(image, self.threshold, method, pad=self.pad)
         f = self.smoother(f_raw)
         if clock:
             t1 = clock()
         write_cycle(t, pose, f_raw, f)  # the keys ``writer`` registered, through the adapter's fast path
         self.features_raw, self.features = f_raw, f
-        self.command.clear()
-        self.tree.tick()
-        twist = self.command.twist()
+        command = self.command
+        command.clear()
+        tick(self.tree)
+        twist = command.twist()
         if clock:
             self.stage_times[0] += t1 - t0
             self.stage_times[1] += clock() - t1
             self.stage_cycles += 1
         return twist
+
+
+def tick(tree: py_trees.trees.BehaviourTree) -> None:
+    """``tree.tick()``; without visitors or tick handlers, the root's tick alone (``tick()`` walks
+    the whole tree once more per tick to show it to its visitors, even when it has none)."""
+    if tree.visitors or tree.pre_tick_handlers or tree.post_tick_handlers:
+        tree.tick()
+        return
+    for _ in tree.root.tick():
+        pass
+    tree.count += 1
 
 
 def failure_reason(root: py_trees.behaviour.Behaviour) -> str:

@@ -8,7 +8,8 @@ Pipeline of :func:`extract`:
 
 1. Tactels that are NaN, infinite or negative are replaced by 0 and counted.
 2. Binarise ``image > threshold`` (strictly greater) and label connected components with
-   8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force).
+   8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force, then the
+   region whose first tactel comes first in row-major order).
 3. Force ``f = sum f_ij`` and the force-weighted centre of pressure over ``R`` (Eq. 1),
    pressure ``p = f / (|R| pitch^2)`` in Pa (Eq. 2), with the pitch of the pad
    (:class:`~tactile_bt.sense.geometry.PadGeometry`) the image comes from.
@@ -22,9 +23,10 @@ force-weighted covariance of ``R``, the anisotropy ``(l1 - l2) / (l1 + l2)`` mus
 blob gives ~0; a straight 2-tactel-wide, 3-tactel-long bar already gives 0.45; a single tactel
 (``l1 = l2 = 0``) gives NaN.
 
-Speed: a 16x16 frame costs one ``scipy.ndimage.label`` plus a handful of numpy calls; all
-moments come from one matrix product of the masked image with a cached ``(N, 6)`` basis of
-``[1, x, y, x^2, xy, y^2]``.
+Speed: steps 1-3 and the moments of step 4 are one compiled kernel, a few passes over the image
+(:func:`tactile_bt.perception.kernels.largest_region`, numba, cached on disk); a 16x16 frame
+costs a few microseconds, most of them in building the result. ``tests/test_kernels.py`` checks
+it against the ``scipy.ndimage.label`` + moment-basis implementation it replaced.
 
 Layer: perception.
 """
@@ -36,9 +38,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from tactile_bt import defaults
+from tactile_bt.perception.kernels import largest_region, windowed_centroid
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = [
@@ -67,8 +69,6 @@ HOUGH_SMOOTH_DEG: float = 4.0
 
 _HALF_PI = 0.5 * math.pi
 _HOUGH_THETA = np.deg2rad(np.arange(-90.0, 90.0, HOUGH_STEP_DEG))
-_EIGHT = np.ones((3, 3), dtype=bool)  # 8-connectivity structuring element
-_BASIS_CACHE: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, float]] = {}
 #: The pad of an image given without one: the paper's pitch, the image's shape.
 _DEFAULT_PAD = PadGeometry()
 
@@ -196,27 +196,11 @@ class ContactFeatures:
         )
 
 
-def _basis(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, float]:
-    """Cached moment bases ``[1, x, y, x^2, xy, y^2]`` (N, 6), ``[1, x, y]`` (N, 3), clip limit."""
-    hit = _BASIS_CACHE.get(shape)
-    if hit is None:
-        rows, cols = shape
-        y, x = np.divmod(np.arange(rows * cols, dtype=float), cols)
-        basis = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=1)
-        # Largest per-tactel force for which no moment sum can overflow a float64.
-        limit = np.finfo(float).max / (rows * cols * (max(rows, cols) ** 2 + 1) * 4.0)
-        hit = (basis, np.ascontiguousarray(basis[:, :3]), float(limit))
-        _BASIS_CACHE[shape] = hit
-    return hit
-
-
-def _sanitise(img: np.ndarray, limit: float) -> tuple[np.ndarray, int]:
-    """Replace NaN/inf/negative tactels by 0 (counted) and clip absurdly large finite ones."""
-    bad = ~(img >= 0.0) | (img == math.inf)
-    n_bad = int(np.count_nonzero(bad))
-    clean = np.where(bad, 0.0, img)
-    np.minimum(clean, limit, out=clean)
-    return clean, n_bad
+@functools.lru_cache(maxsize=16)
+def _clip_limit(shape: tuple[int, int]) -> float:
+    """Largest per-tactel force for which no moment sum of a ``shape`` image can overflow."""
+    rows, cols = shape
+    return float(np.finfo(float).max / (rows * cols * (max(rows, cols) ** 2 + 1) * 4.0))
 
 
 def _moment_angle(mu20: float, mu11: float, mu02: float, min_anisotropy: float) -> float:
@@ -334,65 +318,33 @@ def extract(
     pitch = pad.pitch
     if img.size == 0:
         return ContactFeatures.no_contact(shape, 0, method, pad)
-    basis, basis_cop, limit = _basis(shape)
-    n_bad = 0
-    # Fast validity test (False for NaN): every tactel finite, >= 0 and below the clip limit.
-    if not (img.min() >= 0.0 and img.max() < limit):
-        img, n_bad = _sanitise(img, limit)
-    binary = img > threshold
-    labels, n = ndimage.label(binary, _EIGHT)
-    if n == 0:
+    if not (img.flags.c_contiguous and img.flags.writeable):
+        img = np.array(img, order="C")  # the one array layout the kernel is compiled for
+    clean = np.empty(shape)
+    mask = np.empty(shape, dtype=bool)
+    work = np.empty(3 * img.size + 1, dtype=np.int32)
+    n_bad, changed, area, f, mx, my, mxx, mxy, myy = largest_region(
+        img, float(threshold), _clip_limit(shape), clean, mask, work)
+    if changed:
+        img = clean
+    if not (area > 0 and f > 0.0 and math.isfinite(f)):
         return ContactFeatures.no_contact(shape, n_bad, method, pad)
-    if n == 1:
-        mask = binary
-    else:
-        flat_labels = labels.ravel()
-        sizes = np.bincount(flat_labels).tolist()
-        sizes[0] = 0  # background
-        top = max(sizes)
-        if sizes.count(top) == 1:
-            best = sizes.index(top)
-        else:  # tie in size: the larger force wins
-            forces = np.bincount(flat_labels, weights=img.ravel()).tolist()
-            best = max((k for k in range(1, n + 1) if sizes[k] == top), key=forces.__getitem__)
-        mask = labels == best
-    m = ((img * mask).ravel() @ (basis_cop if method is None else basis)).tolist()
-    f = m[0]
-    if not (f > 0.0 and math.isfinite(f)):
-        return ContactFeatures.no_contact(shape, n_bad, method, pad)
-    area = int(np.count_nonzero(mask))
     # a convex combination of tactel centres; clip the last-ulp rounding back onto the pad
-    cx = min(max(m[1] / f, 0.0), shape[1] - 1.0)
-    cy = min(max(m[2] / f, 0.0), shape[0] - 1.0)
+    cx = min(max(mx / f, 0.0), shape[1] - 1.0)
+    cy = min(max(my / f, 0.0), shape[0] - 1.0)
     if method is None:
         angle = math.nan
     else:
-        mu20 = max(m[3] / f - cx * cx, 0.0)
-        mu11 = m[4] / f - cx * cy
-        mu02 = max(m[5] / f - cy * cy, 0.0)
+        mu20 = max(mxx / f - cx * cx, 0.0)
+        mu11 = mxy / f - cx * cy
+        mu02 = max(myy / f - cy * cy, 0.0)
         angle = _moment_angle(mu20, mu11, mu02, min_anisotropy)
         if method == "hough" and angle == angle:
             angle = hough_orientation(img, mask)
-    return ContactFeatures(
-        in_contact=True,
-        force=f,
-        area=area,
-        pressure=f / (area * pitch * pitch),
-        cop_px=np.array((cx, cy)),
-        orientation=angle,
-        method=method,
-        mask=mask,
-        invalid_tactels=n_bad,
-        pad=pad,
-        image=img,
-    )
-
-
-@functools.lru_cache(maxsize=4)
-def _grid_coordinates(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Contiguous column (x) and row (y) index of every tactel, row-major."""
-    y, x = np.divmod(np.arange(shape[0] * shape[1], dtype=float), shape[1])
-    return x, y
+    # in_contact, force, area, pressure, cop_px, orientation, method, mask, invalid_tactels, pad,
+    # image: positional, a third cheaper than by keyword, once per cycle
+    return ContactFeatures(True, f, area, f / (area * pitch * pitch), np.array((cx, cy)), angle, method, mask, n_bad,
+                           pad, img)
 
 
 def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:
@@ -415,19 +367,17 @@ def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np
     alpha = features.orientation
     if not features.in_contact or alpha != alpha or features.image is None:
         return features.cop_px
-    _, basis_cop, _ = _basis(features.mask.shape)  # columns [1, x, y] per tactel, row-major
     ux, uy = math.cos(alpha), math.sin(alpha)
     cx, cy = features.cop_px.tolist()
     px, py = features.pad.centre_px
     # Position along the major axis, relative to where the axis passes closest to the centre.
     centre_along = (px - cx) * ux + (py - cy) * uy
-    xs, ys = _grid_coordinates(features.mask.shape)
-    along = xs * ux + ys * uy - (cx * ux + cy * uy + centre_along)
-    window = 1.0 - np.abs(along) * (1.0 / window_px)
-    np.maximum(window, 0.0, out=window)
-    m = ((features.image * features.mask).ravel() * window) @ basis_cop
-    total, sx, sy = m.tolist()
+    image, mask = features.image, features.mask
+    if not (image.flags.c_contiguous and image.flags.writeable and image.dtype == np.float64):
+        image = np.array(image, dtype=float, order="C")
+    if not (mask.flags.c_contiguous and mask.flags.writeable and mask.dtype == np.bool_):
+        mask = np.array(mask, dtype=bool, order="C")
+    total, sx, sy = windowed_centroid(image, mask, ux, uy, cx * ux + cy * uy + centre_along, 1.0 / window_px)
     if not total > 0.0:
         return features.cop_px
     return np.array((sx / total, sy / total))
-

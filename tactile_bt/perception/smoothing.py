@@ -10,7 +10,6 @@ Layer: perception.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 from tactile_bt import defaults
 from tactile_bt.perception.features import ContactFeatures
@@ -174,4 +173,6 @@ class FeatureSmoother:
             force = f.force
         if pressure != pressure:
             pressure = f.pressure
-        return replace(f, force=force, pressure=pressure, orientation=angle)
+        # Built field by field, in their order: dataclasses.replace costs three times as much.
+        return ContactFeatures(f.in_contact, force, f.area, pressure, f.cop_px, angle, f.method, f.mask,
+                               f.invalid_tactels, f.pad, f.image)

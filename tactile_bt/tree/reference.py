@@ -20,6 +20,7 @@ from typing import Any
 import py_trees
 
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
+from tactile_bt.tree.composites import Parallel
 from tactile_bt.tree.parameters import ParameterInfo, describe_type, parameters_of
 from tactile_bt.tree.registry import MISSING, COMPOSITES
 
@@ -58,7 +59,7 @@ def describe_nodes() -> dict[str, NodeDoc]:
     out: dict[str, NodeDoc] = {}
     for name, params in COMPOSITES.items():
         cls = {"sequence": py_trees.composites.Sequence, "selector": py_trees.composites.Selector,
-               "parallel": py_trees.composites.Parallel}[name]
+               "parallel": Parallel}[name]
         out[name] = NodeDoc(name, "composite", cls, _COMPOSITE_SUMMARY[name], list(params))
     for name, cls in DECORATORS.items():
         child = ParameterInfo("child", _NODE, MISSING, None, "The decorated node.")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import py_trees
 from py_trees.common import Access, Status
+from py_trees.logging import Level
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import NAMESPACE, TIME, read
@@ -17,6 +18,7 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
 
 __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 
+_STATUSES = tuple(Status)
 
 
 class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
@@ -72,6 +74,25 @@ class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
     @feedback_message.setter
     def feedback_message(self, message: str) -> None:
         self._feedback = message
+
+    def tick(self):
+        """py_trees' :meth:`~py_trees.decorators.Decorator.tick` without a debug message
+        formatted while py_trees' debug log is off and without building the list of all statuses
+        every tick (as :meth:`~tactile_bt.tree.behaviours.base.TactileBehaviour.tick`)."""
+        if py_trees.logging.level < Level.INFO:
+            yield from super().tick()
+            return
+        if self.status != Status.RUNNING:
+            self.initialise()
+        yield from self.decorated.tick()
+        new_status = self.update()
+        if new_status not in _STATUSES:
+            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
+            new_status = Status.INVALID
+        if new_status != Status.RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
 
     def initialise(self) -> None:
         self._start = float(read(TIME))

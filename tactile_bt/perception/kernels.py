@@ -1,0 +1,171 @@
+"""Compiled loops of the feature extraction on one small force image (numba, nopython).
+
+Two kernels, each a few passes over the ``rows × cols`` tactels without a temporary array,
+where numpy would spend most of its time in per-call overhead on 256 values:
+
+* :func:`largest_region` — sanitise the image, label the regions above the threshold with
+  8-connectivity, pick the largest (ties: larger force, then the one met first in row-major
+  order, as ``scipy.ndimage.label`` numbers them) and sum its moments ``[1, x, y, x², xy, y²]``;
+* :func:`windowed_centroid` — the force-weighted centroid of a region under a triangular window
+  along an axis (the local contact point of an elongated contact).
+
+They are compiled on first use and cached on disk (``cache=True``: a fresh install pays the
+compile once). Arguments must have the types the callers in :mod:`tactile_bt.perception.features`
+give them (C-contiguous, writable float64 / bool arrays, Python floats), so that each kernel is
+compiled for one signature only. ``tests/test_kernels.py`` checks them against the numpy and
+scipy implementations they replace (``tests/oracles.py``).
+
+Layer: perception.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["largest_region", "windowed_centroid"]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def largest_region(img, threshold, limit, clean, mask, work):
+    """Largest 8-connected region of ``img > threshold`` and its force moments.
+
+    Parameters
+    ----------
+    img : float64[:, ::1]
+        Force image (N per tactel); NaN, infinite and negative tactels count as 0, finite ones
+        above ``limit`` as ``limit``.
+    threshold : float
+        A tactel belongs to a region when its (sanitised) force is strictly greater.
+    limit : float
+        Clip limit of finite forces (no moment sum can overflow below it).
+    clean : float64[:, ::1]
+        Output: the sanitised image.
+    mask : bool[:, ::1]
+        Output: the largest region (all False without one).
+    work : int32[::1]
+        Scratch space of ``3 rows cols + 1`` entries: labels, flood-fill stack, region sizes.
+
+    Returns
+    -------
+    tuple
+        ``(invalid, changed, area, m1, mx, my, mxx, mxy, myy)``: the number of NaN / infinite /
+        negative tactels, whether ``clean`` differs from ``img``, the region's tactel count and
+        its sums of ``f``, ``f x``, ``f y``, ``f x²``, ``f xy``, ``f y²`` (x = column, y = row).
+    """
+    rows, cols = img.shape
+    n = rows * cols
+    invalid = 0
+    changed = False
+    for i in range(rows):
+        for j in range(cols):
+            v = img[i, j]
+            if not v >= 0.0 or v == np.inf:
+                invalid += 1
+                v = 0.0
+                changed = True
+            elif v > limit:
+                v = limit
+                changed = True
+            clean[i, j] = v
+    # Flood fill from each unlabelled tactel in row-major order, so regions are numbered 1, 2,
+    # ... in the order of their first tactel (as scipy.ndimage.label numbers them). work[:n]
+    # holds the labels, work[n:2n] the stack, work[2n + k] the size of region k.
+    work[:n] = 0
+    count = 0
+    best = 0
+    best_size = 0
+    tie = False
+    for i0 in range(rows):
+        for j0 in range(cols):
+            p = i0 * cols + j0
+            if work[p] != 0 or not clean[i0, j0] > threshold:
+                continue
+            count += 1
+            work[p] = count
+            work[n] = p
+            top = 1
+            size = 0
+            while top > 0:
+                top -= 1
+                size += 1
+                q = work[n + top]
+                i = q // cols
+                j = q - i * cols
+                for ni in range(max(i - 1, 0), min(i + 2, rows)):
+                    for nj in range(max(j - 1, 0), min(j + 2, cols)):
+                        r = ni * cols + nj
+                        if work[r] == 0 and clean[ni, nj] > threshold:
+                            work[r] = count
+                            work[n + top] = r
+                            top += 1
+            work[2 * n + count] = size
+            if size > best_size:
+                best, best_size, tie = count, size, False
+            elif size == best_size:
+                tie = True
+    if tie:
+        # A tie in size: the larger force wins, then the smaller label. The forces are summed in
+        # row-major order, as numpy's bincount sums them, so that equal sums compare equal.
+        best_force = -1.0
+        for k in range(1, count + 1):
+            if work[2 * n + k] == best_size:
+                force = 0.0
+                for i in range(rows):
+                    for j in range(cols):
+                        if work[i * cols + j] == k:
+                            force += clean[i, j]
+                if force > best_force:
+                    best, best_force = k, force
+    area = 0
+    m1 = mx = my = mxx = mxy = myy = 0.0
+    for i in range(rows):
+        y = float(i)
+        for j in range(cols):
+            inside = best > 0 and work[i * cols + j] == best
+            mask[i, j] = inside
+            if inside:
+                x = float(j)
+                v = clean[i, j]
+                area += 1
+                m1 += v
+                mx += v * x
+                my += v * y
+                mxx += v * (x * x)
+                mxy += v * (x * y)
+                myy += v * (y * y)
+    return invalid, changed, area, m1, mx, my, mxx, mxy, myy
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def windowed_centroid(image, mask, ux, uy, offset, inv_half_width):
+    """Sums ``(w, w x, w y)`` of the region's force times ``max(0, 1 - |x ux + y uy - offset| *
+    inv_half_width)``: a triangular window across the line ``x ux + y uy = offset``.
+
+    Parameters
+    ----------
+    image : float64[:, ::1]
+        Force image (finite, >= 0).
+    mask : bool[:, ::1]
+        The region.
+    ux, uy : float
+        Unit vector along the window's axis (x = column, y = row).
+    offset : float
+        Position along the axis of the window's centre (tactels).
+    inv_half_width : float
+        One over the window's half-width (1 / tactels).
+    """
+    rows, cols = image.shape
+    total = sx = sy = 0.0
+    for i in range(rows):
+        y = float(i)
+        for j in range(cols):
+            if mask[i, j]:
+                x = float(j)
+                w = 1.0 - abs(x * ux + y * uy - offset) * inv_half_width
+                if w > 0.0:
+                    v = image[i, j] * w
+                    total += v
+                    sx += v * x
+                    sy += v * y
+    return total, sx, sy
