@@ -23,6 +23,7 @@ Layer: tree.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 
@@ -37,31 +38,45 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, between, normalise_key
 __all__ = ["CableEnd", "line_reach"]
 
 
+@functools.lru_cache(maxsize=16)
+def _grid(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Column and row index of every tactel of a ``shape`` pad, flattened (row-major), as floats."""
+    rows, cols = np.indices(shape, dtype=float)
+    return cols.ravel(), rows.ravel()
+
+
+@functools.lru_cache(maxsize=16)
+def _along(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad: float) -> np.ndarray:
+    """Position of every tactel along ``direction_rad`` from the pad centre (tactels), flattened."""
+    x, y = _grid(shape)
+    return (x - centre_px[0]) * math.cos(direction_rad) + (y - centre_px[1]) * math.sin(direction_rad)
+
+
 def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: float) -> float:
     """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
     ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
     plus half a tactel (a tactel's far edge). ``-inf`` for an empty mask."""
-    rows, cols = np.nonzero(mask)
-    if rows.size == 0:
-        return -math.inf
-    along = (cols - centre_px[0]) * math.cos(direction_rad) + (rows - centre_px[1]) * math.sin(direction_rad)
-    return float(along.max()) + 0.5
+    along = _along(mask.shape, tuple(centre_px), float(direction_rad))[mask.ravel()]
+    return float(along.max()) + 0.5 if along.size else -math.inf
 
 
 def _shape(mask: np.ndarray) -> tuple[float, float]:
     """Anisotropy ``(l1 - l2) / (l1 + l2)`` (1 for a line, 0 for a disc) and axis angle (rad,
-    from +x towards +y) of the tactel positions of ``mask``."""
-    rows, cols = np.nonzero(mask)
-    if rows.size < 3:
+    from +x towards +y) of the tactel positions of ``mask`` (second moments by dot products: this
+    runs every control cycle)."""
+    m = mask.ravel().astype(float)
+    n = float(m.sum())
+    if n < 3:
         return 1.0, math.nan
-    x = cols - cols.mean()
-    y = rows - rows.mean()
-    sxx, syy, sxy = float(x @ x), float(y @ y), float(x @ y)
-    spread = math.hypot(sxx - syy, 2.0 * sxy)
+    x, y = _grid(mask.shape)
+    mx, my = float(m @ x) / n, float(m @ y) / n
+    sxx = float(m @ (x * x)) / n - mx * mx
+    syy = float(m @ (y * y)) / n - my * my
+    sxy = float(m @ (x * y)) / n - mx * my
     total = sxx + syy
     if total <= 0:
         return 0.0, math.nan
-    return spread / total, 0.5 * math.atan2(2.0 * sxy, sxx - syy)
+    return math.hypot(sxx - syy, 2.0 * sxy) / total, 0.5 * math.atan2(2.0 * sxy, sxx - syy)
 
 
 class CableEnd(TactileBehaviour):
