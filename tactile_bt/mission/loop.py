@@ -23,7 +23,7 @@ from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import TactileBehaviour
 from tactile_bt.tree.blackboard import cycle_writer, write_cycle
 
-__all__ = ["ControlLoop", "root_outcome", "failure_reason"]
+__all__ = ["ControlLoop", "root_outcome", "failure_reason", "success_reason"]
 
 
 class ControlLoop:
@@ -114,11 +114,22 @@ def failure_reason(root: py_trees.behaviour.Behaviour) -> str:
     return root.feedback_message
 
 
+def success_reason(root: py_trees.behaviour.Behaviour) -> str:
+    """Name and message of the deepest succeeded node that ends a task and says why: a node
+    whose class sets ``reports_success = True`` (e.g. ``frontier_guidance``: "no reachable
+    frontier left", ``coverage_stalled``); "" when none did."""
+    for node in root.iterate():  # children before their parents
+        if node.status == Status.SUCCESS and getattr(node, "reports_success", False) and node.feedback_message:
+            return f"{node.name}: {node.feedback_message}"
+    return ""
+
+
 def root_outcome(root: py_trees.behaviour.Behaviour) -> tuple[str, str] | None:
-    """``(status, reason)`` once the tree's root has ended (``success`` or ``failure`` with the
-    reason of :func:`failure_reason`), else None: the one stop rule of missions and replays."""
+    """``(status, reason)`` once the tree's root has ended (``success`` with the reason of
+    :func:`success_reason`, ``failure`` with that of :func:`failure_reason`), else None: the one
+    stop rule of missions and replays."""
     if root.status == Status.SUCCESS:
-        return "success", ""
+        return "success", success_reason(root)
     if root.status == Status.FAILURE:
         return "failure", failure_reason(root)
     return None
