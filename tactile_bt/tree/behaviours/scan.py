@@ -120,9 +120,10 @@ class StripeEnd(TactileBehaviour):
     the previous stripe, ends once it has tilted 5° more than the least tilt it has had, or if it
     has not come back within the limit after ``window_s``); the pad normal has turned more than
     ``max_turn_rad`` since the stripe started (it has rolled over an edge); within ``window_s``
-    the pad normal has turned more than ``edge_turn_rad`` while the contact point moved, in the
-    direction of the turn, less than ``edge_radius_m`` times the angle (it rolls over an edge:
-    on a surface curved with radius R the contact moves R·θ as the pad turns by θ);
+    the pad normal has turned more than ``edge_turn_rad``, tilting away from ``up``, while the
+    contact point moved, in the direction of the turn, less than ``edge_radius_m`` times the
+    angle (it rolls over an edge: on a surface curved with radius R the contact moves R·θ as the
+    pad turns by θ);
     the contact point has travelled ``max_travel_m``; the contact point has jumped more than
     ``max_jump_m`` from one cycle to the next (the largest contact region is now another object,
     such as the table under a tilted pad). The feedback message says which.
@@ -316,6 +317,11 @@ class StripeEnd(TactileBehaviour):
             if cos_turn >= self._cos_edge:
                 continue
             turn = math.acos(max(-1.0, min(1.0, cos_turn)))
+            # only a turn away from ``up``: rolling back from an edge onto the face is no end
+            up = self.up
+            if math.acos(max(-1.0, min(1.0, -float(normal @ up)))) - math.acos(max(-1.0, min(1.0, -float(n0 @ up)))) \
+                    < 0.5 * turn:
+                continue
             # the way the normal turned is the way the contact moves on a curved surface
             d = normal - n0
             across = abs(float((point - p0) @ d)) / float(np.linalg.norm(d))
