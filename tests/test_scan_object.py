@@ -146,8 +146,8 @@ def offset_harness(height: float, tilt_deg: float, **kw) -> LeafHarness:
 
 def test_table_offset_moves_the_contact_downhill_just_enough():
     # tilted 40° about world y: downhill is world +x, sensor +x (x_s = x_g when facing down)
-    h = offset_harness(0.025, 40.0, clearance_m=0.006, max_offset_m=0.035, rate_mps=0.04)
-    for _ in range(200):
+    h = offset_harness(0.025, 40.0, clearance_m=0.006, max_offset_m=0.035, rate_mps=0.04, smoothing_s=0.1)
+    for _ in range(1000):  # 4 s: 40 time constants of the low-pass filter
         h.tick(frame=contact_frame())
     target = np.asarray(py_trees.blackboard.Blackboard.storage["/scan/cop_target"])
     reach = (0.025 - 0.006) / math.sin(math.radians(40))  # of the border downhill of the contact
@@ -164,10 +164,10 @@ def test_table_offset_is_bounded_rate_limited_and_slides_the_pad_the_other_way()
     assert_allclose(target, [0.02 * DT, 0.0], atol=1e-12)  # one cycle at 20 mm/s
     # the pad slides the opposite way at the same speed, so the contact keeps its place
     assert_allclose(h.twist_of(h.behaviour)[:2], [-0.02, 0.0], atol=1e-9)
-    for _ in range(400):
+    for _ in range(2000):
         h.tick(frame=contact_frame())
     target = np.asarray(py_trees.blackboard.Blackboard.storage["/scan/cop_target"])
-    assert_allclose(target, [0.03, 0.0], atol=1e-12)  # at most max_offset_m
+    assert_allclose(target, [0.03, 0.0], atol=1e-9)  # at most max_offset_m
     assert_allclose(h.twist_of(h.behaviour), 0.0, atol=1e-12)  # settled: no more sliding
 
 
@@ -195,7 +195,8 @@ def test_centre_to_and_roll_to_follow_their_key_every_cycle(cls, reference):
     h.tick(make_features(cop_px=(9.5, 7.5)))
     ref = LeafHarness(reference(target_m=(-0.005, 0.002), kp=2.0))
     ref.tick(make_features(cop_px=(9.5, 7.5)))
-    assert_allclose(h.twist, ref.twist, atol=1e-12)
+    rows = [0, 1] if cls is CentreTo else [3, 4]  # roll_to also keeps the contact's height: row vz
+    assert_allclose(h.twist[rows], ref.twist[rows], atol=1e-12)
     assert np.any(first != 0)
 
 
@@ -319,7 +320,7 @@ def test_planner_does_not_start_before_anything_is_touched_and_waits_without_con
     for _ in range(20):
         assert h.tick(make_features()) == Status.RUNNING
     assert h.tick(make_features(in_contact=False)) == Status.RUNNING
-    assert leaf.feedback_message == "waiting for contact"
+    assert leaf.feedback_message.startswith("waiting for contact")
 
 
 def test_planner_leaves_out_frontier_at_the_table():
@@ -329,15 +330,16 @@ def test_planner_leaves_out_frontier_at_the_table():
 
 
 def test_planner_backs_off_uphill_when_the_pad_nears_the_table_and_blocks_that_way():
-    # the touched disc (tilted 40° towards +x) lies 25 mm up; the pad touches at its centre
+    # the touched disc (tilted 40° towards +x) lies 30 mm up; the pad, tilted as much, touches
+    # it 5 mm from its rim at +x; its lowest edge is 40 mm * sin 40° = 25.7 mm below the contact
     tilt = math.radians(40)
-    patch = disc(0.02, z=0.025, normal=(math.sin(tilt), 0.0, math.cos(tilt)))
-    leaf, h = planner_harness(patch, (0.015, 0.0), height=0.025, rotation=tilted(40), table=0.0,
-                              table_clearance_m=0.003)
+    patch = disc(0.02, z=0.03, normal=(math.sin(tilt), 0.0, math.cos(tilt)))
+    leaf, h = planner_harness(patch, (0.015, 0.0), height=0.03, rotation=tilted(40), table=0.0,
+                              table_clearance_m=0.002)
     h.tick(make_features())
-    assert leaf.target is not None and leaf.direction[0] > 0.7  # downhill, to the rim at +x
-    # the pad sinks towards the table: its lowest corner passes 3 mm
-    for z in np.arange(0.025, 0.020, -0.0005):
+    assert leaf.target is not None and leaf.direction[0] > 0.9  # downhill, to the rim at +x
+    # the pad sinks towards the table: its lowest corner passes 2 mm
+    for z in np.arange(0.03, 0.025, -0.0005):
         h.set_pose(pose(tilted(40), (0.015, 0.0, z)))
         h.tick(make_features())
     assert leaf.blocks == 1 and "above the table" in leaf.last_end
@@ -436,3 +438,26 @@ def test_a_calibrated_table_height_from_the_command_line_wins_over_the_scene():
     tree = load_tree("trees/scan_object.yaml", blackboard=[f"{TABLE_Z_KEY}=0.012"])
     run_mission(tree, "sim/scan_box.yaml", duration=0.02)
     assert _storage(TABLE_Z_KEY) == pytest.approx(0.012)
+
+
+def test_roll_to_rolls_about_an_offset_contact_without_pressing_the_pad_in():
+    leaf = RollTo(target_key="/test/cop", kp=6.0)
+    h = LeafHarness(leaf)
+    h.set("/test/cop", (0.03, 0.0))
+    h.tick(make_features(cop_px=(12.5, 9.5)))  # the contact at x = 25 mm, y = 10 mm
+    twist = h.twist_of(leaf)
+    x, y = 0.025, 0.010
+    assert twist[3] != 0 and twist[4] != 0
+    # the contact point's speed v + ω × p has no component along the pad normal
+    w = twist[3:]
+    assert twist[2] + np.cross(w, [x, y, 0.0])[2] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_square_to_slope_turns_about_the_contact():
+    leaf = SquareToSlope(kp=2.0)
+    h = LeafHarness(leaf, pose=pose(tilted(35, yaw_deg=20.0), (0.0, 0.0, 0.05)))
+    h.tick(make_features(cop_px=(1.5, 9.5)))  # the contact at x = -30 mm, y = 10 mm
+    v = h.twist_of(leaf)
+    assert v[5] != 0 and v[2:5].tolist() == [0, 0, 0]
+    # the contact point's speed v + ω × p is zero: it keeps its place on the pad
+    assert_allclose(v[:3] + np.cross(v[3:], [-0.03, 0.01, 0.0]), 0.0, atol=1e-15)

@@ -47,6 +47,16 @@ _EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
 SMALL_HOLE_CELLS = 2
 #: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
 _LEVEL_MARGIN_COS = 0.02
+#: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
+_SINKING_M = 0.0005
+_ZERO_TWIST = np.zeros(6)
+#: Time constant (s) of the low-pass filter on the contact point the planner steers from.
+_POINT_FILTER_S = 0.1
+#: The guidance slows down linearly from full speed with the contact this far (m) from the
+#: pad's border to ``_SLOWEST`` of it at ``_BORDER_STOP_M``.
+_BORDER_SLOW_M = 0.012
+_BORDER_STOP_M = 0.004
+_SLOWEST = 0.1
 #: Number of direction sectors a cell is blocked in (45° each).
 SECTORS = 8
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
@@ -193,8 +203,11 @@ class FrontierMap:
 class FrontierGuidance(TactileBehaviour):
     """Slide towards the nearest reachable frontier of the touched surface; SUCCESS when none is
     left (see the module docstring). Writes the guidance twist (sensor frame, m/s) to ``key``
-    every tick, zero while it chooses; put it in parallel with ``guided_slide: {twist_key: key}``,
-    the servo leaves and ``record_contacts``.
+    every tick, zero while it chooses or out of contact; put it in parallel with
+    ``guided_slide: {twist_key: key}``, the servo leaves and ``record_contacts``.
+
+    The map and its blocked directions outlive a restart of the leaf (a ``retry`` after a lost
+    contact): they belong to the mission's contact cloud, and start again with a new cloud.
 
     Parameters
     ----------
@@ -214,7 +227,8 @@ class FrontierGuidance(TactileBehaviour):
         See ``max_tilt_rad``.
     table_clearance_m : float
         An attempt ends when the pad's lowest corner comes this close to the table while moving
-        towards it (m; needs the table height on ``table_key``).
+        towards it, and the pad then backs off until it is twice as high (m; needs the table's
+        height on ``table_key``). Frontier cells this close to the table are the table's edge.
     corner_margin_m : float
         Width of the pad's frame around the sensing area, for the corners (m).
     table_key : str
@@ -229,27 +243,30 @@ class FrontierGuidance(TactileBehaviour):
         attempt (the pad has run half over an edge; 0 = off).
     max_jump_m : float
         An attempt ends when the contact point jumps more than this from one cycle to the next
-        (m; 0 = off).
+        (m; 0 = off): onto another object, such as the table. With the table's height known,
+        only a jump down to the table counts (a soft, lumpy object's contact may jump between
+        its parts).
     edge_turn_rad : float
-        An attempt ends when the pad turns more than this within ``window_s`` at a radius of
-        curvature below ``edge_radius_m``: it is rolling over an edge (rad; 0 = off).
+        An attempt ends when the pad turns more than this within ``window_s``, away from the
+        vertical, at a radius of curvature below ``edge_radius_m``: it is rolling over an edge
+        (rad; 0 = off).
     edge_radius_m : float
         See ``edge_turn_rad`` (m).
     block_radius_m : float
-        Radius around the pad centre within which frontier cells facing the failed direction are
-        blocked when the attempt ends at an edge (the contact shrinks or the pad rolls over it:
-        the imprint has reached the edge across the pad; m; 0 = half the pad's width).
+        Radius around the pad centre within which frontier cells facing the way the pad went
+        are blocked when the attempt ends at an edge (the contact shrinks or the pad rolls over
+        it: the imprint has reached the edge across the pad; m; 0 = half the pad's width).
     local_block_radius_m : float
         Radius around the contact point within which they are blocked at the other ends: the
-        tilt limit, the table, a stall or a jump of the contact (m).
+        tilt limit, the table, a stall, a jump or a loss of the contact (m).
     retreat_m : float
-        After an attempt has ended the pad backs off towards where the attempt started, at
-        least this far (m) and until it is about as level as it was there (or back there).
+        After an attempt has ended the pad backs off, uphill and away from the way it went, at
+        least this far (m) and until it is about as level as where the attempt started.
     replan_s : float
         Time between map updates and target choices (s).
     attempt_s : float
-        Time allowed to reach a target beyond the travel time at ``speed_mps`` (s); then it is
-        blocked.
+        Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back
+        off (s).
     """
 
     uses = frozenset({"cop"})
@@ -262,16 +279,17 @@ class FrontierGuidance(TactileBehaviour):
                         "corner_margin_m": NON_NEGATIVE, "window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE,
                         "min_area_ratio": between(0, 1, high_open=True), "max_jump_m": NON_NEGATIVE,
                         "edge_turn_rad": between(0, math.pi), "edge_radius_m": NON_NEGATIVE,
-                        "block_radius_m": NON_NEGATIVE, "local_block_radius_m": NON_NEGATIVE, "retreat_m": NON_NEGATIVE, "replan_s": POSITIVE, "attempt_s": POSITIVE}
+                        "block_radius_m": NON_NEGATIVE, "local_block_radius_m": NON_NEGATIVE,
+                        "retreat_m": NON_NEGATIVE, "replan_s": POSITIVE, "attempt_s": POSITIVE}
 
     def __init__(self, name: str = "frontier_guidance", key: str = "/scan/guidance", speed_mps: float = 0.02,
                  cell_m: float = 0.002, extent_m: float = 0.3, max_tilt_rad: float = math.radians(70.0),
-                 tilt_margin_rad: float = math.radians(5.0), table_clearance_m: float = 0.004,
+                 tilt_margin_rad: float = math.radians(5.0), table_clearance_m: float = 0.003,
                  corner_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY, window_s: float = 1.0,
                  min_travel_m: float = 0.004, min_area_ratio: float = 0.5, max_jump_m: float = 0.01,
                  edge_turn_rad: float = math.radians(10.0), edge_radius_m: float = 0.01,
-                 block_radius_m: float = 0.0, local_block_radius_m: float = 0.01, retreat_m: float = 0.005, replan_s: float = 0.2,
-                 attempt_s: float = 4.0) -> None:
+                 block_radius_m: float = 0.0, local_block_radius_m: float = 0.01, retreat_m: float = 0.005,
+                 replan_s: float = 0.2, attempt_s: float = 4.0) -> None:
         super().__init__(name)
         self.key = normalise_key(key)
         self.table_key = normalise_key(table_key)
@@ -281,98 +299,138 @@ class FrontierGuidance(TactileBehaviour):
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self.cell_m = float(cell_m)
         self.extent_m = float(extent_m)
+        self._end = StripeEnd(name=f"{name}/end")  # the end-of-surface test of an attempt
         for k, v in (("speed_mps", speed_mps), ("max_tilt_rad", max_tilt_rad), ("tilt_margin_rad", tilt_margin_rad),
                      ("table_clearance_m", table_clearance_m), ("corner_margin_m", corner_margin_m),
                      ("window_s", window_s), ("min_travel_m", min_travel_m), ("min_area_ratio", min_area_ratio),
-                     ("max_jump_m", max_jump_m), ("edge_turn_rad", edge_turn_rad),
-                     ("edge_radius_m", edge_radius_m), ("block_radius_m", block_radius_m),
-                     ("local_block_radius_m", local_block_radius_m), ("retreat_m", retreat_m), ("replan_s", replan_s),
-                     ("attempt_s", attempt_s)):
+                     ("max_jump_m", max_jump_m), ("edge_turn_rad", edge_turn_rad), ("edge_radius_m", edge_radius_m),
+                     ("block_radius_m", block_radius_m), ("local_block_radius_m", local_block_radius_m),
+                     ("retreat_m", retreat_m), ("replan_s", replan_s), ("attempt_s", attempt_s)):
             self.set_parameter(k, v)
-        self._end = StripeEnd(name=f"{name}/end")
-        self._configure_end()
+        #: The map of the touched surface (None before the first contact sample).
         self.map: FrontierMap | None = None
-        self._cloud = None
-        self._seen = 0
+        self._map_cloud = None  # the cloud the map was filled from
+        self._seen = 0  # samples of that cloud in the map
         self.table_z_m = math.nan
+        #: (row, column) of the frontier cell the pad is sliding to, or None.
         self.target: tuple[int, int] | None = None
+        #: World xy direction of the current (or last) attempt.
         self.direction = np.zeros(2)
+        #: Targets chosen, attempts ended at the end of the surface, reachable frontier cells at
+        #: the last choice, and why the last attempt ended.
         self.attempts = 0
         self.blocks = 0
         self.candidates = 0
         self.last_end = ""
+        self._state = "waiting for contact"
+        self._reset_motion()
 
     def set_parameter(self, name: str, value) -> None:
         if name in self.parameter_bounds:
             value = float(value)
         super().set_parameter(name, value)
-        if name in _END_PARAMETERS and hasattr(self, "_end"):
-            self._configure_end()
-
-    def _configure_end(self) -> None:
-        for k in _END_PARAMETERS:
-            self._end.set_parameter(k, getattr(self, k))
+        if name in _END_PARAMETERS:
+            self._end.set_parameter(name, value)
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
         self._cloud = self.bb.contacts
 
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"{self._state}: target {self.attempts}, {self.candidates} frontier cells, {self.blocks} ends"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
     # -- the map -----------------------------------------------------------------------------
-    def _update_map(self, contact_xy) -> None:
+    def _update_map(self, point: np.ndarray) -> None:
         cloud = self._cloud
+        if cloud is not self._map_cloud:  # another mission's cloud: start again
+            self.map, self._map_cloud, self._seen = None, cloud, 0
         n = len(cloud)
-        if n < self._seen:  # a new mission's cloud: start again
-            self.map, self._seen = None, 0
-        if self.map is None:
-            if n == 0 and contact_xy is None:
-                return
-            centre = cloud.points[0] if n else contact_xy
-            self.map = FrontierMap(centre, self.cell_m, self.extent_m)
         if n > self._seen:
+            if self.map is None:
+                self.map = FrontierMap(point[:2], self.cell_m, self.extent_m)
             self.map.add(cloud.points[self._seen:n], cloud.normals[self._seen:n])
             self._seen = n
 
-    def _candidates(self):
+    def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rows, columns and outward directions of the reachable, unblocked frontier cells."""
         m = self.map
         rows, cols, out = m.frontier()
         if len(rows) == 0:
             return rows, cols, out
-        tilt = m.tilt(rows, cols)
-        ok = tilt <= self.max_tilt_rad - self.tilt_margin_rad
-        if math.isfinite(self.table_z_m):
+        ok = m.tilt(rows, cols) <= self.max_tilt_rad - self.tilt_margin_rad
+        if math.isfinite(self.table_z_m):  # the object's foot at the table is no frontier
             ok &= m.z_max[rows, cols] > self.table_z_m + self.table_clearance_m
         ok &= ~m.blocked[rows, cols, _sector(out)]
         return rows[ok], cols[ok], out[ok]
 
-    # -- the life cycle ----------------------------------------------------------------------
-    def initialise(self) -> None:
-        self.table_z_m = table_height(self._setup, self.table_key)
-        self.target = None
-        self.direction = np.zeros(2)
-        self._next_plan = self.now
-        self._avoid: np.ndarray | None = None
-        self._retreat = None
-        self._last_point: np.ndarray | None = None
-        write(self.key, np.zeros(6))
-
+    # -- the pad -----------------------------------------------------------------------------
     def _contact_point(self) -> np.ndarray | None:
+        """Where the pad touches (world), low-passed over ``_POINT_FILTER_S``: on a soft or
+        lumpy object the largest contact region, and with it the centre of pressure, may jump
+        between parts of the imprint from one cycle to the next; None out of contact."""
         f = self.features_raw
         if not f.in_contact:
+            self._point = None
             return None
         T = self.pose
         x, y = f.cop_xy
-        return T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+        point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+        if self._point is None:
+            self._point = point
+        else:
+            self._point = self._point + (point - self._point) * min(1.0, self.dt / _POINT_FILTER_S)
+        return self._point
 
     def _clearance(self) -> tuple[float, np.ndarray]:
+        """Height (m) of the pad's lowest corner above the table, and the corner (world)."""
         if not math.isfinite(self.table_z_m):
             return math.inf, np.zeros(3)
         corner = lowest_corner(self.pose, self.pad, self.corner_margin_m)
         return float(corner[2] - self.table_z_m), corner
 
+    def _tilt_cos(self) -> float:
+        """Cosine of the pad's tilt from the vertical."""
+        return -float(self.pose[2, 2])
+
+    def _guide(self, world: np.ndarray | None) -> None:
+        """Write the guidance along the world direction ``world`` (zero when None), slower as
+        the contact nears the pad's border: sliding drags the contact towards the trailing
+        side, and off the pad when it sits near the border already (see ``table_offset``)."""
+        norm = 0.0 if world is None else float(np.linalg.norm(world))
+        if norm < 1e-12:
+            write(self.key, _ZERO_TWIST)
+            return
+        speed = self.speed_mps
+        f = self.features_raw
+        if f.in_contact:
+            w, h = self.pad.size_m
+            x, y = f.cop_xy
+            margin = min(0.5 * w - abs(x), 0.5 * h - abs(y))
+            speed *= min(1.0, max(_SLOWEST, (margin - _BORDER_STOP_M) / (_BORDER_SLOW_M - _BORDER_STOP_M)))
+        write(self.key, tangent_guidance(self.pose, world / norm, speed))
+
+    # -- attempts ----------------------------------------------------------------------------
+    def _reset_motion(self) -> None:
+        self.target = None
+        self._next_plan = -math.inf
+        self._avoid: np.ndarray | None = None  # the way the last attempt ended
+        self._retreat: tuple | None = None
+        self._last_point: np.ndarray | None = None
+        self._point: np.ndarray | None = None  # the low-passed contact point
+        self._start_tilt_cos = -2.0
+
     def _choose(self, point: np.ndarray) -> bool:
-        """Choose the next target from ``point`` (world); False when no reachable frontier is
-        left."""
+        """Choose the next target from ``point`` (world), or start backing off from the table
+        when every reachable frontier lies downhill of the pad's lowest corner; False when no
+        reachable frontier is left."""
         rows, cols, out = self._candidates()
         self.candidates = len(rows)
         if not len(rows):
@@ -384,12 +442,13 @@ class FrontierGuidance(TactileBehaviour):
         with np.errstate(invalid="ignore", divide="ignore"):
             heading = np.where(dist[:, None] > 1e-9, delta / dist[:, None], out)
         cost = dist.copy()
-        if np.any(self.direction):  # keep going the same way when it is as near
+        if np.any(self.direction):  # keep going the same way when it is about as near
             cost *= 1.0 + 0.5 * (1.0 - heading @ self.direction)
-        if self._avoid is not None:  # just blocked that way: choose another way if there is one
+        if self._avoid is not None:  # just ended that way: another way if there is one
             away = heading @ self._avoid < 0.5
             if np.any(away):
                 cost = np.where(away, cost, np.inf)
+            self._avoid = None
         clearance, corner = self._clearance()
         if clearance < 2 * self.table_clearance_m:  # near the table: not towards the lowest corner
             low = corner[:2] - self.pose[:2, 3]
@@ -397,7 +456,6 @@ class FrontierGuidance(TactileBehaviour):
             up = heading @ low < 0.3
             if not np.any(up):  # every way left leads down: first gain height, then see
                 self._start_retreat(point, "near the table", -low)
-                self.target = None
                 return True
             cost = np.where(up, cost, np.inf)
         k = int(np.argmin(cost))
@@ -406,15 +464,16 @@ class FrontierGuidance(TactileBehaviour):
         self._target_xy = centres[k]
         self._target_z = float(self.map.z_max[self.target])
         self._deadline = self.now + dist[k] / self.speed_mps + self.attempt_s
+        self._clearance_start = clearance
         self.attempts += 1
         self._end.initialise()
-        self._clearance_start = self._clearance()[0]
         self._steer(point)
         return True
 
     def _steer(self, point: np.ndarray) -> np.ndarray:
         """Set :attr:`direction` (world xy) towards the target and return the world direction
-        (3-D, towards the highest sample of the target cell) the pad slides along."""
+        the pad slides along: towards the highest sample of the target cell, or once there,
+        outwards across it."""
         delta = self._target_xy - point[:2]
         dist = float(np.linalg.norm(delta))
         if dist > self.cell_m:
@@ -423,9 +482,27 @@ class FrontierGuidance(TactileBehaviour):
         self.direction = self._target_out
         return np.array([self.direction[0], self.direction[1], 0.0])
 
-    def _block(self, point: np.ndarray, why: str, under_pad: bool = False) -> None:
-        m = self.map
-        if under_pad:  # the surface ends at an edge under the pad: as far as the pad reaches
+    def _attempt_end(self, point: np.ndarray) -> tuple[str, bool]:
+        """Why the current attempt has come to an end ("" while it goes on), and whether at an
+        edge under the pad."""
+        if self._end.update() != Status.RUNNING:
+            if (self._end.cause == "jump" and math.isfinite(self.table_z_m)
+                    and point[2] > self.table_z_m + self.table_clearance_m):
+                # not onto the table (known): another part of the same contact, e.g. on a soft,
+                # lumpy object; go on
+                self._end.initialise()
+                return "", False
+            return self._end.feedback_message, self._end.cause in _EDGE_CAUSES
+        clearance, _ = self._clearance()
+        if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:
+            return f"the pad's corner {clearance * 1e3:.1f} mm above the table", False
+        if self.now > self._deadline:
+            return "target not reached in time", False
+        return "", False
+
+    def _block(self, point: np.ndarray, why: str, at_edge: bool = False) -> None:
+        """Block the frontier the attempt was heading for, in its direction."""
+        if at_edge:  # the surface ends at an edge under the pad: as far as the pad reaches
             radius, centre = self.block_radius_m or self.pad.half_width_m, self.pose[:3, 3]
         else:  # too steep, the table, stuck: only this part of the frontier is out of reach
             radius, centre = self.local_block_radius_m, point
@@ -433,66 +510,58 @@ class FrontierGuidance(TactileBehaviour):
         rows = cols = None
         if self.target is not None:
             rows, cols = [self.target[0]], [self.target[1]]
-        m.block(centre[:2], radius, d, rows, cols)
-        m.block(point[:2], 2 * self.cell_m, d)
+        self.map.block(centre[:2], radius, d, rows, cols)
+        self.map.block(point[:2], 2 * self.cell_m, d)
         self.blocks += 1
         self.last_end = why
         self._avoid = np.array(d, dtype=float)
         self.target = None
 
-    def _tilt_cos(self) -> float:
-        return -float(self.pose[2, 2])
-
     def _start_retreat(self, point: np.ndarray, why: str, away: np.ndarray | None = None) -> None:
-        """Back off, uphill and away from the way the attempt went (or from ``away``, world xy),
-        at least ``retreat_m``, until the pad is about as level as where the attempt started
-        and clear of the table: it may have rolled over an edge or down a slope."""
+        """Back off, uphill and away from the way the attempt went (or along ``away``, world
+        xy), at least ``retreat_m``, until the pad is about as level as where the attempt
+        started and clear of the table: it may have rolled over an edge or down a slope."""
         if away is None:
-            d = self.direction if np.any(self.direction) else self._target_out
-            away = -np.asarray(d, dtype=float)
+            away = -(self.direction if np.any(self.direction) else self._target_out)
         direction = np.array([away[0], away[1], 1.0])  # the world's up is uphill on the pad
-        self._retreat = (direction / np.linalg.norm(direction), point.copy(), self.now + self.attempt_s, why)
+        self._retreat = (direction, point[:2].copy(), self.now + self.attempt_s, why)
 
     def _retreating(self, point: np.ndarray) -> bool:
         """Steer the retreat; False once it is over."""
         direction, origin, until, why = self._retreat
-        back = float(np.hypot(*(point[:2] - origin[:2])))
+        back = float(np.hypot(*(point[:2] - origin)))
         level = self._tilt_cos() >= self._start_tilt_cos and self._clearance()[0] >= 2 * self.table_clearance_m
         if (level and back >= self.retreat_m) or self.now > until:
             self._retreat = None
             return False
-        write(self.key, tangent_guidance(self.pose, direction, self.speed_mps))
-        self.feedback_message = f"backing off ({why})"
+        self._guide(direction)
+        self._state = f"backing off ({why})"
         return True
 
+    # -- the life cycle ----------------------------------------------------------------------
+    def initialise(self) -> None:
+        self.table_z_m = table_height(self._setup, self.table_key)
+        self._reset_motion()
+        self._guide(None)
+
     def update(self) -> Status:
+        self._feedback = None
         point = self._contact_point()
-        now = self.now
         if point is None:  # no contact: hold still, the guards decide
             if self.target is not None and self._last_point is not None:
-                # lost on the way: that way is out of reach from here
-                self._block(self._last_point, "contact lost")
+                self._block(self._last_point, "contact lost")  # that way is out of reach from here
             self._retreat = None
-            write(self.key, np.zeros(6))
-            self.feedback_message = "waiting for contact"
+            self._guide(None)
+            self._state = "waiting for contact"
             return Status.RUNNING
         self._last_point = point
+        now = self.now
         if self._retreat is not None and self._retreating(point):
             return Status.RUNNING
         if self.target is not None:
-            why, edge = "", False
-            end = self._end.update()
-            if end != Status.RUNNING:
-                why = self._end.feedback_message
-                edge = self._end.cause in _EDGE_CAUSES
-            else:
-                clearance, _ = self._clearance()
-                if clearance < self.table_clearance_m and clearance < self._clearance_start - 0.0005:
-                    why = f"the pad's corner {clearance * 1e3:.1f} mm above the table"
-                elif now > self._deadline:
-                    why = "target not reached in time"
+            why, at_edge = self._attempt_end(point)
             if why:
-                self._block(point, why, edge)
+                self._block(point, why, at_edge)
                 self._start_retreat(point, why)
                 self._next_plan = now
                 if self._retreating(point):
@@ -500,25 +569,25 @@ class FrontierGuidance(TactileBehaviour):
         if now >= self._next_plan:
             self._next_plan = now + self.replan_s
             self._update_map(point)
-            if self.map is not None and self._seen > 0:  # nothing touched yet: wait for the recorder
-                if self.target is not None:
-                    rows, cols, _ = self._candidates()
-                    still = np.any((rows == self.target[0]) & (cols == self.target[1]))
-                    if not still:
-                        self.target = None
-                if self.target is None:
-                    if not self._choose(point):
-                        write(self.key, np.zeros(6))
-                        self.feedback_message = (f"no reachable frontier left ({self.attempts} targets, "
-                                                 f"{self.blocks} ends of the surface)")
-                        return Status.SUCCESS
-                    self._avoid = None
-                    if self._retreat is not None and self._retreating(point):
-                        return Status.RUNNING
-        if self.target is not None:
-            world = self._steer(point)
-            write(self.key, tangent_guidance(self.pose, world / np.linalg.norm(world), self.speed_mps))
-        else:
-            write(self.key, np.zeros(6))
-        self.feedback_message = f"target {self.attempts}, {self.candidates} frontier cells, {self.blocks} ends"
+            if self.map is None:  # nothing recorded yet
+                self._guide(None)
+                self._state = "waiting for the first contacts"
+                return Status.RUNNING
+            if self.target is not None:  # covered meanwhile (or blocked): choose again
+                rows, cols, _ = self._candidates()
+                if not np.any((rows == self.target[0]) & (cols == self.target[1])):
+                    self.target = None
+            if self.target is None:
+                if not self._choose(point):
+                    self._guide(None)
+                    self.feedback_message = (f"no reachable frontier left ({self.attempts} targets, "
+                                             f"{self.blocks} ends of the surface)")
+                    return Status.SUCCESS
+                if self._retreat is not None and self._retreating(point):
+                    return Status.RUNNING
+        if self.target is None:
+            self._guide(None)
+            return Status.RUNNING
+        self._guide(self._steer(point))
+        self._state = "sliding to the frontier"
         return Status.RUNNING

@@ -60,16 +60,20 @@ class TableOffset(TactileBehaviour):
         Largest distance of the target from the pad centre (m).
     rate_mps : float
         Largest speed of the target on the pad (m/s).
+    smoothing_s : float
+        Time constant of the low-pass filter on the wanted target (s).
     table_key : str
         Blackboard key of the table's height (m, world z).
     """
 
     uses = frozenset({"cop"})
     fixed_parameters = frozenset({"name", "key", "table_key"})
-    parameter_bounds = {"clearance_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "rate_mps": POSITIVE}
+    parameter_bounds = {"clearance_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "rate_mps": POSITIVE,
+                        "smoothing_s": POSITIVE}
 
     def __init__(self, name: str = "table_offset", key: str = "/scan/cop_target", clearance_m: float = 0.006,
-                 max_offset_m: float = 0.03, rate_mps: float = 0.02, table_key: str = TABLE_Z_KEY) -> None:
+                 max_offset_m: float = 0.03, rate_mps: float = 0.02, smoothing_s: float = 0.2,
+                 table_key: str = TABLE_Z_KEY) -> None:
         super().__init__(name)
         self.key = normalise_key(key)
         self.table_key = normalise_key(table_key)
@@ -77,10 +81,12 @@ class TableOffset(TactileBehaviour):
         self._writer.register_key(key=self.key, access=Access.WRITE)
         self._setup = self.attach_blackboard_client(name=f"{name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
-        for k, v in (("clearance_m", clearance_m), ("max_offset_m", max_offset_m), ("rate_mps", rate_mps)):
+        for k, v in (("clearance_m", clearance_m), ("max_offset_m", max_offset_m), ("rate_mps", rate_mps),
+                     ("smoothing_s", smoothing_s)):
             self.set_parameter(k, float(v))
         self.table_z_m = math.nan
         self.target = np.zeros(2)
+        self._goal = np.zeros(2)
         write(self.key, (0.0, 0.0))
 
     def initialise(self) -> None:
@@ -103,13 +109,14 @@ class TableOffset(TactileBehaviour):
         return offset * u
 
     def update(self) -> Status:
-        f = self.features_raw
+        f = self.features
         if f.in_contact:
             T = self.pose
             x, y = f.cop_xy
             z = float(T[2, 0] * x + T[2, 1] * y + T[2, 3])
-            goal = self.wanted(T, z)
-            step = goal - self.target
+            # the wanted target, low-passed: the contact's height over sin(tilt) is noisy
+            self._goal += (self.wanted(T, z) - self._goal) * min(1.0, self.dt / self.smoothing_s)
+            step = self._goal - self.target
             n = float(np.hypot(step[0], step[1]))
             limit = self.rate_mps * self.dt
             if n > limit:
@@ -122,8 +129,19 @@ class TableOffset(TactileBehaviour):
             if n > 0:
                 self.command.add(self.name, (-step[0] / self.dt, -step[1] / self.dt, 0.0, 0.0, 0.0, 0.0))
         write(self.key, (float(self.target[0]), float(self.target[1])))
-        self.feedback_message = f"target [{self.target[0] * 1e3:.1f}, {self.target[1] * 1e3:.1f}] mm"
+        self._feedback = None
         return Status.RUNNING
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"target [{self.target[0] * 1e3:.1f}, {self.target[1] * 1e3:.1f}] mm"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
 
 
 class _FollowKey:
@@ -176,6 +194,12 @@ class RollTo(_FollowKey, Roll):
     """``roll`` with its target centre of pressure read from ``target_key`` every cycle (m,
     sensor frame; ``target_m`` while the key is not set), e.g. written by ``table_offset``.
 
+    It rolls the pad about the contact, not about the pad centre: with the contact ``(x, y)``
+    away from the centre, turning by ``(ωx, ωy)`` about the centre would also move the contact
+    along the normal by ``ωx·y − ωy·x`` and press the pad in or lift it off, which the force
+    hold then has to undo (on a stiff object it starts oscillating). The leaf adds the opposite
+    normal speed (row vz); for a contact at the centre, the paper's case, that is zero.
+
     Parameters
     ----------
     target_key : str
@@ -201,6 +225,14 @@ class RollTo(_FollowKey, Roll):
         super().__init__(name, target_m, kp, ki, kd, output_limit)
         self._bind_target_key(name, target_key)
 
+    def update(self) -> Status:
+        status = super().update()
+        wx, wy = self._last_twist[3], self._last_twist[4]
+        if wx or wy:
+            x, y = self.features.cop_xy
+            self.command.add(self.name, (0.0, 0.0, wy * x - wx * y, 0.0, 0.0, 0.0))
+        return status
+
 
 #: ``square_to_slope`` keeps turning to the same edge until another is nearer by this much (rad).
 _HYSTERESIS_RAD = math.radians(10.0)
@@ -211,7 +243,9 @@ class SquareToSlope(TactileBehaviour):
     direction of steepest descent in the pad's plane lies along ±x or ±y of the sensor frame,
     so the pad's lowest point is an edge, not a corner. Adds ``ωz = kp · error`` (at most
     ``output_limit``) while the pad is tilted more than ``min_tilt_rad`` and in contact; RUNNING.
-    It reads the pose only, no tactile feature.
+    The error comes from the pose alone. The pad turns about the contact (the centre of
+    pressure ``(x, y)``: it adds ``vx = ωz·y, vy = −ωz·x``), so that a contact away from the
+    centre keeps its place on the pad instead of being swept towards the border.
 
     Of the four edges it turns to the nearest one, unless that would take the pad more than
     ``max_turn_rad`` from where it was when the leaf started (it counts its own turns): going
@@ -229,7 +263,7 @@ class SquareToSlope(TactileBehaviour):
         Largest turn about the pad normal from the start (rad, either way).
     """
 
-    uses = frozenset({"pressure"})
+    uses = frozenset({"cop"})
     parameter_bounds = {"kp": NON_NEGATIVE, "output_limit": POSITIVE, "min_tilt_rad": between(0, math.pi / 2),
                         "max_turn_rad": between(math.pi / 4, math.pi)}
 
@@ -276,7 +310,8 @@ class SquareToSlope(TactileBehaviour):
             self.feedback_message = "level" if e != e else "no contact"
             return Status.RUNNING
         w = max(-self.output_limit, min(self.output_limit, self.kp * e))
-        self.command.add(self.name, (0.0, 0.0, 0.0, 0.0, 0.0, w))
+        x, y = self.features.cop_xy  # turn about the contact: it keeps its place on the pad
+        self.command.add(self.name, (w * y, -w * x, 0.0, 0.0, 0.0, w))
         self.turned_rad += w * self.dt
         self.feedback_message = f"error {math.degrees(e):+.1f}°, turned {math.degrees(self.turned_rad):+.0f}°"
         return Status.RUNNING
