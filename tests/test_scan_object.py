@@ -461,3 +461,18 @@ def test_square_to_slope_turns_about_the_contact():
     assert v[5] != 0 and v[2:5].tolist() == [0, 0, 0]
     # the contact point's speed v + ω × p is zero: it keeps its place on the pad
     assert_allclose(v[:3] + np.cross(v[3:], [-0.03, 0.01, 0.0]), 0.0, atol=1e-15)
+
+
+def test_an_attempt_that_ends_on_the_way_blocks_its_target_and_the_frontier_on_the_way():
+    # a strip of touched surface along x; the pad at x = -30 mm heads for the rim along the
+    # strip's +y side further on, and the attempt ends where it is
+    pts, normals = disc(0.06, step=0.001)
+    keep = np.abs(pts[:, 1]) <= 0.02
+    leaf, h = planner_harness((pts[keep], normals[keep]), (-0.03, 0.015))
+    h.tick(make_features())
+    assert leaf.target is not None
+    target = leaf._target_xy.copy()
+    leaf._block(np.array([-0.03, 0.015, 0.05]), "test")
+    rows, cols, out = leaf._candidates()
+    xy = leaf.map.centre_of(rows, cols)
+    assert not np.any(np.linalg.norm(xy - target, axis=1) < 1e-9)  # the target is out of reach

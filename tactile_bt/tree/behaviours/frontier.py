@@ -175,6 +175,13 @@ class FrontierMap:
         vec = out[rows, cols] / norm[rows, cols, None]
         return rows + w[0].start, cols + w[1].start, vec
 
+    def block_cells(self, rows: np.ndarray, cols: np.ndarray, directions_xy: np.ndarray) -> None:
+        """Block the cells ``(rows, cols)`` each for crossings in its own direction (``(k, 2)``,
+        world xy) and the two neighbouring sectors."""
+        s = _sector(np.asarray(directions_xy, dtype=float))
+        for k in (-1, 0, 1):
+            self.blocked[rows, cols, (s + k) % SECTORS] = True
+
     def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None) -> int:
         """Block the cells within ``radius_m`` of ``centre_xy`` (and the cells ``rows, cols``)
         for crossings in ``direction_xy`` and its two neighbouring sectors; returns how many
@@ -507,11 +514,18 @@ class FrontierGuidance(TactileBehaviour):
         else:  # too steep, the table, stuck: only this part of the frontier is out of reach
             radius, centre = self.local_block_radius_m, point
         d = self.direction if np.any(self.direction) else self._target_out
-        rows = cols = None
-        if self.target is not None:
-            rows, cols = [self.target[0]], [self.target[1]]
-        self.map.block(centre[:2], radius, d, rows, cols)
+        self.map.block(centre[:2], radius, d)
         self.map.block(point[:2], 2 * self.cell_m, d)
+        if self.target is not None:
+            # the target and the frontier on the way to it, out of reach along this way
+            rows, cols, out = self.map.frontier()
+            xy = self.map.centre_of(rows, cols)
+            a, b = point[:2], self._target_xy
+            ab = b - a
+            u = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+            on_way = np.linalg.norm(xy - (a + u[:, None] * ab), axis=1) <= self.local_block_radius_m
+            on_way |= (rows == self.target[0]) & (cols == self.target[1])
+            self.map.block_cells(rows[on_way], cols[on_way], out[on_way])
         self.blocks += 1
         self.last_end = why
         self._avoid = np.array(d, dtype=float)

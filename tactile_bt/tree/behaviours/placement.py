@@ -313,5 +313,16 @@ class SquareToSlope(TactileBehaviour):
         x, y = self.features.cop_xy  # turn about the contact: it keeps its place on the pad
         self.command.add(self.name, (w * y, -w * x, 0.0, 0.0, 0.0, w))
         self.turned_rad += w * self.dt
-        self.feedback_message = f"error {math.degrees(e):+.1f}°, turned {math.degrees(self.turned_rad):+.0f}°"
+        self._feedback = None
         return Status.RUNNING
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"error {math.degrees(self.error_rad):+.1f}°, turned {math.degrees(self.turned_rad):+.0f}°"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message

@@ -119,8 +119,21 @@ class TableClearance(TactileBehaviour):
                                      f"(limit {self.min_clearance_m * 1e3:.1f} mm) at x {corner[0] * 1e3:.0f}, "
                                      f"y {corner[1] * 1e3:.0f} mm")
             return Status.FAILURE
-        self.feedback_message = f"clearance {clearance * 1e3:.1f} mm"
+        self._feedback = None
         return Status.RUNNING
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            if not math.isfinite(self.table_z_m):
+                return "no table in the set-up"
+            return f"clearance {self.clearance_m * 1e3:.1f} mm"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
 
 
 def write_table_height(table_z_m: float, key: str = TABLE_Z_KEY) -> None:
