@@ -100,7 +100,7 @@ def check(scene_file: Path) -> str:
           and share >= 0.85 and (p99 <= 1.0 or bool(r.warnings)))
     cable = scene.cable
     return (f"| `{scene_file.name}` | {cable.radius * 2e3:g} mm, {scene.objects[[o is cable for o in scene.objects].index(True)].stiffness:.0e} N/m, "
-            f"{p['cable_length_m'] * 1e3:.0f} mm | {r.status}: {r.reason.removeprefix('end of cable: ')} | "
+            f"{p['cable_length_m'] * 1e3:.0f} mm | {r.status}: {r.reason.removeprefix('cable_end: ').removeprefix('end of cable: ')} | "
             f"{r.sim_time_s:.1f} of {budget:.0f} s | {p['mean'] * 1e3:.2f} / {p['max'] * 1e3:.2f} mm | {share:.0%} | "
             f"{p99:.2f} px | {'; '.join(r.warnings) or '—'} | {'yes' if ok else '**no**'} |")
 

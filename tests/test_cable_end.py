@@ -100,7 +100,7 @@ def test_the_cable_tree_ends_at_the_end_of_a_short_cable_whatever_the_budget(tmp
     scene.write_text(text)
     reports = [run_mission(ROOT / "trees" / "cable_follow.yaml", str(scene), duration=d).summary for d in (30.0, 60.0)]
     for r in reports:
-        assert r.status == "success" and r.reason.startswith("end of cable"), r.reason
+        assert r.status == "success" and "end of cable" in r.reason, r.reason
         assert r.sim_time_s < 20.0
         assert r.path_error_m["max"] < 3e-3 and r.path_error_m["mean"] < 1e-3
         assert r.path_error_m["followed_m"] > 0.7 * r.path_error_m["cable_length_m"]

@@ -130,11 +130,12 @@ def failure_reason(root: py_trees.behaviour.Behaviour) -> str:
 
 
 def success_reason(root: py_trees.behaviour.Behaviour) -> str:
-    """Why a tree succeeded: the message of the leaf that ended the exploration by touch (a leaf
-    with ``ends_mission``, e.g. ``cable_end``), or an empty string."""
-    for node in root.iterate():
-        if getattr(node, "ends_mission", False) and node.status == Status.SUCCESS and node.feedback_message:
-            return node.feedback_message
+    """Name and message of the deepest succeeded node that ends a task and says why: a node
+    whose class sets ``reports_success = True`` (e.g. ``frontier_guidance``: "no reachable
+    frontier left", ``coverage_stalled``); "" when none did."""
+    for node in root.iterate():  # children before their parents
+        if node.status == Status.SUCCESS and getattr(node, "reports_success", False) and node.feedback_message:
+            return f"{node.name}: {node.feedback_message}"
     return ""
 
 

@@ -11,6 +11,7 @@ Layer: mission.
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from pathlib import Path
 from typing import Callable
@@ -131,6 +132,7 @@ def run_mission(
         prepare_output_dir(out)
 
     pad = scene.sensor.geometry
+    _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
     contacts = loop.contacts
 
@@ -196,6 +198,16 @@ def run_mission(
     if out is not None:
         result.save(out)
     return result
+
+
+def _write_setup(scene) -> None:
+    """The robot's known set-up on the blackboard, for the tree: the height of the scene's
+    table (``/setup/table_z_m``, m, world z; NaN when it has none). Never the object."""
+    from tactile_bt.sim.objects import Table
+    from tactile_bt.tree.behaviours.table import write_table_height
+
+    table = next((o for o in scene.objects if isinstance(o, Table)), None)
+    write_table_height(math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2]))
 
 
 #: Largest mission the preallocated log holds (cycles): 10 min at 1.9 kHz, 76 min at 250 Hz.

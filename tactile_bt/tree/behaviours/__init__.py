@@ -16,6 +16,9 @@ from tactile_bt.tree.parameters import bind_blackboard
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours.table import TableClearance
+from tactile_bt.tree.behaviours.frontier import FrontierGuidance
+from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 
 #: YAML node type → leaf class.
@@ -32,6 +35,12 @@ LEAVES = {
     "stripe_end": StripeEnd,
     "coverage_stalled": CoverageStalled,
     "cable_end": CableEnd,
+    "frontier_guidance": FrontierGuidance,
+    "table_clearance": TableClearance,
+    "table_offset": TableOffset,
+    "centre_to": CentreTo,
+    "roll_to": RollTo,
+    "square_to_slope": SquareToSlope,
     "contact_lost": ContactLost,
     "force_limit": ForceLimit,
 }
@@ -62,6 +71,12 @@ __all__ = [
     "StripeEnd",
     "CoverageStalled",
     "CableEnd",
+    "FrontierGuidance",
+    "TableClearance",
+    "TableOffset",
+    "CentreTo",
+    "RollTo",
+    "SquareToSlope",
     "ContactLost",
     "ForceLimit",
     "MissionTimeout",

@@ -60,9 +60,9 @@ class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
 
     uses: frozenset[str] = frozenset()
     writes: tuple[str, ...] = ()
-    #: A leaf whose SUCCESS ends an exploration by touch (the end of a cable, no frontier left):
-    #: its feedback message becomes the mission's reason (:func:`tactile_bt.mission.loop.root_outcome`).
-    ends_mission: bool = False
+    #: A leaf whose SUCCESS ends a task by touch (the end of a cable, no frontier left): its name
+    #: and feedback message become the mission's reason (:func:`tactile_bt.mission.loop.success_reason`).
+    reports_success: bool = False
     #: Parameters that shape the leaf at construction and so cannot follow a blackboard key.
     fixed_parameters: frozenset[str] = frozenset({"name"})
 

@@ -116,7 +116,7 @@ class CableEnd(TactileBehaviour):
     """
 
     uses = frozenset({"pressure", "orientation"})
-    ends_mission = True
+    reports_success = True
     parameter_bounds = {"reach_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "max_turn_rad": between(0.0, math.pi / 2),
                         "min_anisotropy": between(0.0, 1.0), "max_area_ratio": between(0.0, 1.0, low_open=True),
                         "lost_s": NON_NEGATIVE, "dwell_s": NON_NEGATIVE}

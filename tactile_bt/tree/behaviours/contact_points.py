@@ -13,11 +13,12 @@ import math
 from typing import Literal
 
 import numpy as np
-from py_trees.common import Status
+from py_trees.common import Access, Status
 from scipy import ndimage
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 from tactile_bt.perception.features import local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
@@ -127,18 +128,25 @@ class RecordContacts(TactileBehaviour):
     only_when : str
         A blackboard key (e.g. ``/cable/on_line``, written by ``cable_end``): record only in cycles
         where its value is true. Empty: every cycle in contact.
+    table_margin_m : float
+        Leave out the points less than this (m) above the table of the set-up (``table_key``):
+        a contact with the table is not a point of the object (0 = keep them all).
+    table_key : str
+        Blackboard key of the table's height (m, world z; absent or NaN: no table), read when
+        the leaf starts (:mod:`tactile_bt.tree.behaviours.table`).
     """
 
     uses = frozenset({"cop", "pressure"})
-    fixed_parameters = frozenset({"name", "point", "reconstruct"})
+    fixed_parameters = frozenset({"name", "point", "reconstruct", "table_key"})
     parameter_bounds = {"min_spacing_m": NON_NEGATIVE, "voxel_m": NON_NEGATIVE,
-                        "region_level": between(0, 1, low_open=True), "region_step_m": POSITIVE}
+                        "region_level": between(0, 1, low_open=True), "region_step_m": POSITIVE,
+                        "table_margin_m": NON_NEGATIVE}
 
     def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
                  point: Literal["cop", "local", "region"] = "cop", voxel_m: float = 0.0,
                  region_level: float = 0.5, region_step_m: float = 0.0025,
                  reconstruct: Literal["none", "auto", "delaunay", "surface", "hull"] = "none",
-                 only_when: str = "") -> None:
+                 only_when: str = "", table_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY) -> None:
         super().__init__(name)
         if point not in ("cop", "local", "region"):
             raise ValueError(f"{name}: point must be 'cop', 'local' or 'region', got {point!r}")
@@ -153,18 +161,23 @@ class RecordContacts(TactileBehaviour):
         self.set_parameter("voxel_m", voxel_m)
         self.set_parameter("region_level", region_level)
         self.set_parameter("region_step_m", region_step_m)
+        self.set_parameter("table_margin_m", table_margin_m)
+        self.table_key = normalise_key(table_key)
+        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+        self._setup.register_key(key=self.table_key, access=Access.READ)
+        self._floor = -math.inf  # points at or below this z (m) are the table's
         self._last: np.ndarray | None = None
         self._last_rotation: np.ndarray | None = None
         self._in_contact = False
 
     def set_parameter(self, name: str, value) -> None:
-        if name in ("min_spacing_m", "voxel_m") and not value >= 0:
+        if name in ("min_spacing_m", "voxel_m", "table_margin_m") and not value >= 0:
             raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
         if name == "region_level" and not 0.0 < value <= 1.0:
             raise ValueError(f"{self.name}: region_level must be in (0, 1], got {value}")
         if name == "region_step_m" and not value > 0:
             raise ValueError(f"{self.name}: region_step_m must be positive, got {value}")
-        numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m")
+        numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m", "table_margin_m")
         super().set_parameter(name, float(value) if name in numeric else value)
 
     # Formatted only when somebody reads it (not every cycle).
@@ -187,6 +200,8 @@ class RecordContacts(TactileBehaviour):
     def initialise(self) -> None:
         self._last = None
         self._last_rotation = None
+        table_z = table_height(self._setup, self.table_key)
+        self._floor = table_z + self.table_margin_m if self.table_margin_m > 0 and math.isfinite(table_z) else -math.inf
 
     def update(self) -> Status:
         f = self.features_raw
@@ -219,11 +234,16 @@ class RecordContacts(TactileBehaviour):
                     return Status.RUNNING
             local, pressure = imprint_points(f, self.region_level, self.region_step_m)
             world = local @ R.T + T[:3, 3]
+            if self._floor > -math.inf and len(world):  # never the table's contacts
+                above = world[:, 2] > self._floor
+                world, pressure = world[above], pressure[above]
             if self.voxel_m > 0 and len(world):
                 keep = cloud.fresh(world, self.voxel_m)
                 world, pressure = world[keep], pressure[keep]
             cloud.extend(world, normal, pressure, self.now)
             self._last, self._last_rotation = point, R.copy()
+            return Status.RUNNING
+        if point[2] <= self._floor:  # a contact with the table, not the object
             return Status.RUNNING
         if self._last is not None and self.min_spacing_m > 0:
             if np.sum((point - self._last) ** 2) < self.min_spacing_m**2:

@@ -25,7 +25,7 @@ from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
-__all__ = ["ScanDirection", "StripeEnd", "CoverageStalled"]
+__all__ = ["ScanDirection", "StripeEnd", "CoverageStalled", "tangent_guidance"]
 
 #: A stripe that starts beyond the tilt limit ends once it has tilted this much (rad) beyond the
 #: least tilt it had.
@@ -37,6 +37,20 @@ def _unit(name: str, value, what: str) -> np.ndarray:
     if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
         raise ValueError(f"{name}: {what} must be a non-zero [x, y, z], got {value!r}")
     return v / np.linalg.norm(v)
+
+
+def tangent_guidance(pose: np.ndarray, direction: np.ndarray, speed_mps: float) -> np.ndarray:
+    """The sensor-frame guidance twist ``[vx, vy, 0, 0, 0, 0]`` (m/s) that slides the pad at
+    ``pose`` (``T_gs``) along the world ``direction`` (unit vector): the direction projected onto
+    the pad's tangent plane, at ``speed_mps``; zero when the direction is along the pad normal."""
+    R = pose[:3, :3]
+    along = R.T @ direction  # the direction in the sensor frame
+    tangential = math.hypot(along[0], along[1])
+    twist = np.zeros(6)
+    if tangential > 1e-3:  # not along the pad normal
+        twist[0] = speed_mps * along[0] / tangential
+        twist[1] = speed_mps * along[1] / tangential
+    return twist
 
 
 class ScanDirection(TactileBehaviour):
@@ -80,14 +94,7 @@ class ScanDirection(TactileBehaviour):
 
     def guidance(self, pose: np.ndarray) -> np.ndarray:
         """The sensor-frame twist (m/s) for the pad at ``pose`` (``T_gs``)."""
-        R = pose[:3, :3]
-        along = R.T @ self.direction  # the direction in the sensor frame
-        tangential = math.hypot(along[0], along[1])
-        twist = np.zeros(6)
-        if tangential > 1e-3:  # not along the pad normal
-            twist[0] = self.speed_mps * along[0] / tangential
-            twist[1] = self.speed_mps * along[1] / tangential
-        return twist
+        return tangent_guidance(pose, self.direction, self.speed_mps)
 
     def initialise(self) -> None:
         write(self.key, self.guidance(self.pose))
@@ -112,7 +119,11 @@ class StripeEnd(TactileBehaviour):
     for, and it tilts further: a stripe that starts beyond the limit, on the object's side after
     the previous stripe, ends once it has tilted 5° more than the least tilt it has had, or if it
     has not come back within the limit after ``window_s``); the pad normal has turned more than
-    ``max_turn_rad`` since the stripe started (it has rolled over an edge);
+    ``max_turn_rad`` since the stripe started (it has rolled over an edge); within ``window_s``
+    the pad normal has turned more than ``edge_turn_rad``, tilting away from ``up``, while the
+    contact point moved, in the direction of the turn, less than ``edge_radius_m`` times the
+    angle (it rolls over an edge: on a surface curved with radius R the contact moves R·θ as the
+    pad turns by θ);
     the contact point has travelled ``max_travel_m``; the contact point has jumped more than
     ``max_jump_m`` from one cycle to the next (the largest contact region is now another object,
     such as the table under a tilted pad). The feedback message says which.
@@ -137,6 +148,11 @@ class StripeEnd(TactileBehaviour):
     max_turn_rad : float
         Largest turn of the pad normal from its direction at the start of the stripe (rad;
         0 = no turn test): a short step that rolls the pad over an edge ends here.
+    edge_turn_rad : float
+        Least turn of the pad normal within ``window_s`` that the edge test judges (rad; 0 = no
+        edge test).
+    edge_radius_m : float
+        A turn at a radius of curvature below this is an edge (m).
     result : str
         Status at the end of the surface: ``success`` ends the stripe; ``failure`` fails it, so
         that a step between stripes which finds no more surface stops a ``repeat`` of stripes
@@ -147,12 +163,14 @@ class StripeEnd(TactileBehaviour):
     fixed_parameters = frozenset({"name", "result"})
     parameter_bounds = {"window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE, "max_tilt_rad": between(0, math.pi),
                         "max_travel_m": NON_NEGATIVE, "min_area_ratio": between(0, 1, high_open=True),
-                        "max_jump_m": NON_NEGATIVE, "max_turn_rad": between(0, math.pi)}
+                        "max_jump_m": NON_NEGATIVE, "max_turn_rad": between(0, math.pi),
+                        "edge_turn_rad": between(0, math.pi), "edge_radius_m": NON_NEGATIVE}
 
     def __init__(self, name: str = "stripe_end", window_s: float = 1.0, min_travel_m: float = 0.004,
                  max_tilt_rad: float = 0.0, up: Sequence[float] = (0.0, 0.0, 1.0),
                  max_travel_m: float = 0.0, min_area_ratio: float = 0.0, max_jump_m: float = 0.0,
-                 max_turn_rad: float = 0.0, result: Literal["success", "failure"] = "success") -> None:
+                 max_turn_rad: float = 0.0, edge_turn_rad: float = 0.0, edge_radius_m: float = 0.01,
+                 result: Literal["success", "failure"] = "success") -> None:
         super().__init__(name)
         if result not in ("success", "failure"):
             raise ValueError(f"{name}: result must be 'success' or 'failure', got {result!r}")
@@ -161,7 +179,8 @@ class StripeEnd(TactileBehaviour):
         for key, value in (("window_s", window_s), ("min_travel_m", min_travel_m),
                            ("max_tilt_rad", max_tilt_rad), ("up", up), ("max_travel_m", max_travel_m),
                            ("min_area_ratio", min_area_ratio), ("max_jump_m", max_jump_m),
-                           ("max_turn_rad", max_turn_rad)):
+                           ("max_turn_rad", max_turn_rad), ("edge_turn_rad", edge_turn_rad),
+                           ("edge_radius_m", edge_radius_m)):
             self.set_parameter(key, value)
         self._max_area = 0
         self._small_since: float | None = None
@@ -171,6 +190,9 @@ class StripeEnd(TactileBehaviour):
         self._start = 0.0
         self.travelled = 0.0
         self._last: np.ndarray | None = None
+        #: What ended the stripe: "stall", "jump", "shrink", "tilt", "turn", "edge" or "travel"
+        #: ("" while it runs).
+        self.cause = ""
 
     def set_parameter(self, name: str, value) -> None:
         if name == "up":
@@ -179,19 +201,22 @@ class StripeEnd(TactileBehaviour):
         if name == "min_area_ratio" and not 0.0 <= value < 1.0:
             raise ValueError(f"{self.name}: min_area_ratio must be in [0, 1), got {value}")
         if name in ("window_s", "min_travel_m", "max_tilt_rad", "max_travel_m", "min_area_ratio", "max_jump_m",
-                    "max_turn_rad"):
+                    "max_turn_rad", "edge_turn_rad", "edge_radius_m"):
             if not value >= 0:
                 raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
-            if name in ("max_tilt_rad", "max_turn_rad") and value > math.pi:
+            if name in ("max_tilt_rad", "max_turn_rad", "edge_turn_rad") and value > math.pi:
                 raise ValueError(f"{self.name}: {name} must be at most π, got {value}")
             value = float(value)
             if name == "max_tilt_rad":
                 self._cos_tilt = math.cos(value) if value > 0 else -2.0
             if name == "max_turn_rad":
                 self._cos_turn = math.cos(value)
+            if name == "edge_turn_rad":
+                self._cos_edge = math.cos(value)
         super().set_parameter(name, value)
 
     def initialise(self) -> None:
+        self.cause = ""
         self._history.clear()
         self._start = self.now
         self.travelled = 0.0
@@ -213,9 +238,11 @@ class StripeEnd(TactileBehaviour):
                 limit = f"(limit {math.degrees(self.max_tilt_rad):.0f}°)"
                 if tilt > math.acos(min(1.0, self._min_cos)) + _TILT_MARGIN_RAD:
                     self.feedback_message = f"tilted {math.degrees(tilt):.0f}° {limit}"
+                    self.cause = "tilt"
                     return self._end
                 if self._min_cos < self._cos_tilt and 0 < self.window_s <= now - self._start:
                     self.feedback_message = f"stayed beyond the tilt limit for {self.window_s:g} s {limit}"
+                    self.cause = "tilt"
                     return self._end
         if self.max_turn_rad > 0:
             if self._normal0 is None:
@@ -223,6 +250,7 @@ class StripeEnd(TactileBehaviour):
             elif float(T[:3, 2] @ self._normal0) < self._cos_turn:
                 turn = math.degrees(math.acos(max(-1.0, min(1.0, float(T[:3, 2] @ self._normal0)))))
                 self.feedback_message = f"turned {turn:.0f}° over an edge (limit {math.degrees(self.max_turn_rad):.0f}°)"
+                self.cause = "turn"
                 return self._end
         f = self.features_raw
         if f.in_contact:
@@ -233,10 +261,18 @@ class StripeEnd(TactileBehaviour):
                 if 0 < self.max_jump_m < step:
                     self.feedback_message = (f"contact jumped {step * 1e3:.0f} mm after "
                                              f"{self.travelled * 1e3:.0f} mm")
+                    self.cause = "jump"
                     return self._end
                 self.travelled += step
             self._last = point
-            self._history.append((now, point))
+            normal = T[:3, 2]
+            self._history.append((now, point, normal.copy()))
+            if self.edge_turn_rad > 0:
+                edge = self._edge(point, normal)
+                if edge:
+                    self.feedback_message = edge
+                    self.cause = "edge"
+                    return self._end
             if self.min_area_ratio > 0:
                 area = f.area
                 if area > self._max_area:
@@ -247,11 +283,13 @@ class StripeEnd(TactileBehaviour):
                     elif now - self._small_since >= 0.2 * self.window_s:
                         self.feedback_message = (f"contact shrank to {area} of {self._max_area} tactels "
                                                  f"after {self.travelled * 1e3:.0f} mm")
+                        self.cause = "shrink"
                         return self._end
                 else:
                     self._small_since = None
         if self.max_travel_m > 0 and self.travelled >= self.max_travel_m:
             self.feedback_message = f"travelled {self.travelled * 1e3:.0f} mm"
+            self.cause = "travel"
             return self._end
         if self.window_s > 0:
             history = self._history
@@ -262,9 +300,35 @@ class StripeEnd(TactileBehaviour):
                 if moved < self.min_travel_m:
                     self.feedback_message = (f"stalled: {moved * 1e3:.1f} mm in {self.window_s:g} s "
                                              f"after {self.travelled * 1e3:.0f} mm")
+                    self.cause = "stall"
                     return self._end
         self.feedback_message = f"{self.travelled * 1e3:.0f} mm"
         return Status.RUNNING
+
+
+    def _edge(self, point: np.ndarray, normal: np.ndarray) -> str:
+        """Why the pad is rolling over an edge, judged against a few earlier samples of the
+        window (the oldest, the middle one, the one at three quarters), or ""."""
+        history = self._history
+        n = len(history)
+        for i in {0, n // 2, (3 * n) // 4}:
+            _, p0, n0 = history[i]
+            cos_turn = float(normal @ n0)
+            if cos_turn >= self._cos_edge:
+                continue
+            turn = math.acos(max(-1.0, min(1.0, cos_turn)))
+            # only a turn away from ``up``: rolling back from an edge onto the face is no end
+            up = self.up
+            if math.acos(max(-1.0, min(1.0, -float(normal @ up)))) - math.acos(max(-1.0, min(1.0, -float(n0 @ up)))) \
+                    < 0.5 * turn:
+                continue
+            # the way the normal turned is the way the contact moves on a curved surface
+            d = normal - n0
+            across = abs(float((point - p0) @ d)) / float(np.linalg.norm(d))
+            if across < self.edge_radius_m * turn:
+                return (f"rolling over an edge: turned {math.degrees(turn):.0f}° while the contact moved "
+                        f"{across * 1e3:.1f} mm that way, after {self.travelled * 1e3:.0f} mm")
+        return ""
 
 
 class CoverageStalled(TactileBehaviour):
@@ -284,6 +348,8 @@ class CoverageStalled(TactileBehaviour):
     """
 
     parameter_bounds = {"window_s": POSITIVE, "min_growth": NON_NEGATIVE, "min_samples": NON_NEGATIVE}
+    #: Its SUCCESS ends a scan: the mission reports its message as the reason.
+    reports_success = True
 
     def __init__(self, name: str = "coverage_stalled", window_s: float = 10.0, min_growth: float = 0.02,
                  min_samples: int = 100) -> None:

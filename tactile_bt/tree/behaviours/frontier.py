@@ -1,0 +1,607 @@
+"""Exploration by touch: choose where to slide next from what has been touched (frontiers).
+
+The ``frontier_guidance`` leaf keeps a coarse map of the touched surface: an occupancy grid in
+the table plane (world x, y; ``cell_m`` cells) filled from the mission's contact cloud
+(``/tactile/contacts``, read by duck typing: ``.points`` and ``.normals``). The *frontier* is the
+set of touched cells next to untouched ones: an open boundary of the covered area. A frontier
+cell is *reachable* while the surface touched there is tilted less than the pad's tilt limit
+(minus a margin) and no attempt to cross it has failed. The leaf slides the pad towards the
+nearest reachable frontier cell, writing the guidance twist to ``key`` every cycle (the world
+direction projected onto the pad's tangent plane, sensor frame, as ``scan_direction``) for
+``guided_slide: {twist_key: ...}``, while the servo leaves keep the pad on the surface.
+
+An attempt ends at the end of the surface, with the signs of ``stripe_end`` (the contact point
+stalls or jumps, the contact shrinks at an edge, the pad tilts past ``max_tilt_rad``) and one of
+the set-up: the pad's lowest corner coming within ``table_clearance_m`` of the table
+(``/setup/table_z_m``, see :mod:`tactile_bt.tree.behaviours.table`) while moving towards it. The
+frontier cells under the pad whose open side faces the way the pad was going are then *blocked*
+for that direction, and the next target is chosen away from it. The leaf succeeds when no
+reachable frontier is left; it knows nothing of the object's size, pose or shape beyond what
+the pad has touched.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Access, Status
+from scipy import ndimage
+
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
+from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, table_height
+from tactile_bt.tree.blackboard import write
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+
+__all__ = ["FrontierGuidance", "FrontierMap"]
+
+#: Parameters passed on to the end-of-surface test (a ``stripe_end``).
+_END_PARAMETERS = ("window_s", "min_travel_m", "min_area_ratio", "max_jump_m", "max_tilt_rad", "edge_turn_rad",
+                   "edge_radius_m")
+#: Ends of an attempt at an edge under the pad (its imprint reached the edge across its width).
+_EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
+#: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
+SMALL_HOLE_CELLS = 2
+#: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
+_LEVEL_MARGIN_COS = 0.02
+#: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
+_SINKING_M = 0.0005
+_ZERO_TWIST = np.zeros(6)
+#: Time constant (s) of the low-pass filter on the contact point the planner steers from.
+_POINT_FILTER_S = 0.1
+#: The guidance slows down linearly from full speed with the contact this far (m) from the
+#: pad's border to ``_SLOWEST`` of it at ``_BORDER_STOP_M``.
+_BORDER_SLOW_M = 0.012
+_BORDER_STOP_M = 0.004
+_SLOWEST = 0.1
+#: Number of direction sectors a cell is blocked in (45° each).
+SECTORS = 8
+#: 8-neighbour offsets (row = y, column = x) and their unit directions.
+_OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
+_OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
+
+
+def _sector(direction_xy: np.ndarray) -> np.ndarray:
+    """Sector index (0..SECTORS-1) of world xy directions ``(..., 2)``."""
+    angle = np.arctan2(direction_xy[..., 1], direction_xy[..., 0])
+    return np.round(angle / (2 * math.pi / SECTORS)).astype(int) % SECTORS
+
+
+class FrontierMap:
+    """Occupancy grid of the touched surface in the table plane.
+
+    ``cell_m`` cells over a square of half-size ``extent_m`` around ``centre`` (world x, y).
+    Each cell holds the number of contact samples in it, the sum of their outward normals and the
+    highest sample; ``blocked[row, col, sector]`` marks the directions in which an attempt to
+    cross the cell has failed.
+    """
+
+    def __init__(self, centre_xy, cell_m: float = 0.002, extent_m: float = 0.3) -> None:
+        self.cell_m = float(cell_m)
+        self.n = int(math.ceil(2 * extent_m / cell_m))
+        self.origin = np.asarray(centre_xy, dtype=float)[:2] - 0.5 * self.n * self.cell_m
+        self.count = np.zeros((self.n, self.n), dtype=np.int32)
+        self.normal_sum = np.zeros((self.n, self.n, 3))
+        self.z_max = np.full((self.n, self.n), -np.inf)
+        self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
+        self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
+        self._col_any = np.zeros(self.n, dtype=bool)
+
+    def cell_of(self, xy: np.ndarray) -> np.ndarray:
+        """(row, col) indices of world xy points ``(k, 2)``; may lie outside the grid."""
+        ij = np.floor((np.asarray(xy)[..., :2] - self.origin) / self.cell_m).astype(int)
+        return ij[..., ::-1]
+
+    def centre_of(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """World xy (m) of the centres of cells ``(rows, cols)``, ``(k, 2)``."""
+        return self.origin + (np.column_stack((cols, rows)) + 0.5) * self.cell_m
+
+    def add(self, points: np.ndarray, normals: np.ndarray) -> int:
+        """Add contact samples (world points and outward normals, ``(k, 3)``); returns how many
+        fell inside the grid."""
+        rc = self.cell_of(points)
+        inside = np.all((rc >= 0) & (rc < self.n), axis=1)
+        rows, cols = rc[inside, 0], rc[inside, 1]
+        np.add.at(self.count, (rows, cols), 1)
+        np.add.at(self.normal_sum, (rows, cols), normals[inside])
+        np.maximum.at(self.z_max, (rows, cols), points[inside, 2])
+        self._row_any[rows] = True
+        self._col_any[cols] = True
+        return int(inside.sum())
+
+    def _window(self) -> tuple[slice, slice]:
+        """The part of the grid around the touched cells (one cell of margin)."""
+        rows = np.flatnonzero(self._row_any)
+        cols = np.flatnonzero(self._col_any)
+        if not len(rows):
+            return slice(0, 0), slice(0, 0)
+        return (slice(max(rows[0] - 1, 0), min(rows[-1] + 2, self.n)),
+                slice(max(cols[0] - 1, 0), min(cols[-1] + 2, self.n)))
+
+    @staticmethod
+    def _touched(count: np.ndarray) -> np.ndarray:
+        t = count > 0
+        # gaps one cell wide between touched cells (either way, or diagonally)
+        p = np.pad(t, 1)
+        h, w = t.shape
+
+        def at(dy: int, dx: int) -> np.ndarray:
+            return p[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + w]
+
+        t = t | (at(0, -1) & at(0, 1)) | (at(-1, 0) & at(1, 0)) | (at(-1, -1) & at(1, 1)) | (at(-1, 1) & at(1, -1))
+        holes, n = ndimage.label(~t)
+        if n:
+            sizes = np.bincount(holes.ravel())
+            small = sizes <= SMALL_HOLE_CELLS
+            small[0] = False
+            t = t | small[holes]
+        return t
+
+    @property
+    def touched(self) -> np.ndarray:
+        """Cells holding a sample, the gaps one cell wide between them and the holes of at most
+        :data:`SMALL_HOLE_CELLS` cells among them: with the imprint sampled every 2.5 mm on the
+        pad, a line of 2 mm cells may stay empty between samples that cover it (within 2 mm)
+        from both sides."""
+        out = np.zeros((self.n, self.n), dtype=bool)
+        w = self._window()
+        out[w] = self._touched(self.count[w])
+        return out
+
+    def tilt(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Tilt (rad) from the vertical of the mean outward normal in the cells ``(rows, cols)``
+        (NaN where untouched)."""
+        s = self.normal_sum[rows, cols]
+        norm = np.linalg.norm(s, axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.arccos(np.clip(s[..., 2] / norm, -1.0, 1.0))
+
+    def frontier(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows, columns and outward directions ``(k, 2)`` (world xy, unit) of the frontier
+        cells: touched cells with an untouched 8-neighbour; outward points to the untouched
+        ones."""
+        w = self._window()
+        t = self._touched(self.count[w])
+        h, wd = t.shape
+        padded = np.pad(~t, 1, constant_values=True)
+        out = np.zeros((h, wd, 2))
+        for (dy, dx), d in zip(_OFFSETS, _OFFSET_DIRS):
+            out[padded[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + wd]] += d
+        norm = np.linalg.norm(out, axis=2)
+        rows, cols = np.nonzero(t & (norm > 1e-9))
+        vec = out[rows, cols] / norm[rows, cols, None]
+        return rows + w[0].start, cols + w[1].start, vec
+
+    def block_cells(self, rows: np.ndarray, cols: np.ndarray, directions_xy: np.ndarray) -> None:
+        """Block the cells ``(rows, cols)`` each for crossings in its own direction (``(k, 2)``,
+        world xy) and the two neighbouring sectors."""
+        s = _sector(np.asarray(directions_xy, dtype=float))
+        for k in (-1, 0, 1):
+            self.blocked[rows, cols, (s + k) % SECTORS] = True
+
+    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None) -> int:
+        """Block the cells within ``radius_m`` of ``centre_xy`` (and the cells ``rows, cols``)
+        for crossings in ``direction_xy`` and its two neighbouring sectors; returns how many
+        cells were newly blocked in the direction's own sector."""
+        d = np.asarray(direction_xy, dtype=float)[:2]
+        s = int(_sector(d))
+        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
+        r = int(math.ceil(radius_m / self.cell_m))
+        lo = np.maximum(c - r, 0)
+        hi = np.minimum(c + r + 1, self.n)
+        if np.all(hi > lo):
+            rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
+            inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
+            rr, cc = rr[inside], cc[inside]
+        else:
+            rr = cc = np.zeros(0, dtype=int)
+        if rows is not None:
+            rr = np.concatenate((rr, np.asarray(rows, dtype=int)))
+            cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
+        before = int(self.blocked[rr, cc, s].sum())
+        for k in (s - 1, s, s + 1):
+            self.blocked[rr, cc, k % SECTORS] = True
+        return int(self.blocked[rr, cc, s].sum()) - before
+
+
+class FrontierGuidance(TactileBehaviour):
+    """Slide towards the nearest reachable frontier of the touched surface; SUCCESS when none is
+    left (see the module docstring). Writes the guidance twist (sensor frame, m/s) to ``key``
+    every tick, zero while it chooses or out of contact; put it in parallel with
+    ``guided_slide: {twist_key: key}``, the servo leaves and ``record_contacts``.
+
+    The map and its blocked directions outlive a restart of the leaf (a ``retry`` after a lost
+    contact): they belong to the mission's contact cloud, and start again with a new cloud.
+
+    Parameters
+    ----------
+    key : str
+        Blackboard key the guidance twist is written to.
+    speed_mps : float
+        Sliding speed towards the frontier (m/s).
+    cell_m : float
+        Edge of the map's cells in the table plane (m).
+    extent_m : float
+        Half-size of the mapped square around the first contact (m).
+    max_tilt_rad : float
+        The pad's tilt limit from the vertical (rad): an attempt ends beyond it, and a frontier
+        whose touched surface is tilted more than ``max_tilt_rad - tilt_margin_rad`` is out of
+        reach.
+    tilt_margin_rad : float
+        See ``max_tilt_rad``.
+    table_clearance_m : float
+        An attempt ends when the pad's lowest corner comes this close to the table while moving
+        towards it, and the pad then backs off until it is twice as high (m; needs the table's
+        height on ``table_key``). Frontier cells this close to the table are the table's edge.
+    corner_margin_m : float
+        Width of the pad's frame around the sensing area, for the corners (m).
+    table_key : str
+        Blackboard key of the table's height (m, world z; absent or NaN: no table).
+    window_s : float
+        An attempt ends when the contact point moves less than ``min_travel_m`` in this time
+        (s; 0 = no stall test).
+    min_travel_m : float
+        See ``window_s`` (m).
+    min_area_ratio : float
+        An attempt ends when the contact shrinks below this fraction of its largest area in the
+        attempt (the pad has run half over an edge; 0 = off).
+    max_jump_m : float
+        An attempt ends when the contact point jumps more than this from one cycle to the next
+        (m; 0 = off): onto another object, such as the table. With the table's height known,
+        only a jump down to the table counts (a soft, lumpy object's contact may jump between
+        its parts).
+    edge_turn_rad : float
+        An attempt ends when the pad turns more than this within ``window_s``, away from the
+        vertical, at a radius of curvature below ``edge_radius_m``: it is rolling over an edge
+        (rad; 0 = off).
+    edge_radius_m : float
+        See ``edge_turn_rad`` (m).
+    block_radius_m : float
+        Radius around the pad centre within which frontier cells facing the way the pad went
+        are blocked when the attempt ends at an edge (the contact shrinks or the pad rolls over
+        it: the imprint has reached the edge across the pad; m; 0 = half the pad's width).
+    local_block_radius_m : float
+        Radius around the contact point within which they are blocked at the other ends: the
+        tilt limit, the table, a stall, a jump or a loss of the contact (m).
+    retreat_m : float
+        After an attempt has ended the pad backs off, uphill and away from the way it went, at
+        least this far (m) and until it is about as level as where the attempt started.
+    replan_s : float
+        Time between map updates and target choices (s).
+    attempt_s : float
+        Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back
+        off (s).
+    """
+
+    uses = frozenset({"cop"})
+    #: Its SUCCESS ends a scan: the mission reports its message as the reason.
+    reports_success = True
+    fixed_parameters = frozenset({"name", "key", "table_key", "cell_m", "extent_m"})
+    parameter_bounds = {"speed_mps": POSITIVE, "cell_m": POSITIVE, "extent_m": POSITIVE,
+                        "max_tilt_rad": between(0, math.pi / 2, low_open=True),
+                        "tilt_margin_rad": between(0, math.pi / 2), "table_clearance_m": NON_NEGATIVE,
+                        "corner_margin_m": NON_NEGATIVE, "window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE,
+                        "min_area_ratio": between(0, 1, high_open=True), "max_jump_m": NON_NEGATIVE,
+                        "edge_turn_rad": between(0, math.pi), "edge_radius_m": NON_NEGATIVE,
+                        "block_radius_m": NON_NEGATIVE, "local_block_radius_m": NON_NEGATIVE,
+                        "retreat_m": NON_NEGATIVE, "replan_s": POSITIVE, "attempt_s": POSITIVE}
+
+    def __init__(self, name: str = "frontier_guidance", key: str = "/scan/guidance", speed_mps: float = 0.02,
+                 cell_m: float = 0.002, extent_m: float = 0.3, max_tilt_rad: float = math.radians(70.0),
+                 tilt_margin_rad: float = math.radians(5.0), table_clearance_m: float = 0.003,
+                 corner_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY, window_s: float = 1.0,
+                 min_travel_m: float = 0.004, min_area_ratio: float = 0.5, max_jump_m: float = 0.01,
+                 edge_turn_rad: float = math.radians(10.0), edge_radius_m: float = 0.01,
+                 block_radius_m: float = 0.0, local_block_radius_m: float = 0.01, retreat_m: float = 0.005,
+                 replan_s: float = 0.2, attempt_s: float = 4.0) -> None:
+        super().__init__(name)
+        self.key = normalise_key(key)
+        self.table_key = normalise_key(table_key)
+        self._writer = self.attach_blackboard_client(name=f"{name}/guidance")
+        self._writer.register_key(key=self.key, access=Access.WRITE)
+        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+        self._setup.register_key(key=self.table_key, access=Access.READ)
+        self.cell_m = float(cell_m)
+        self.extent_m = float(extent_m)
+        self._end = StripeEnd(name=f"{name}/end")  # the end-of-surface test of an attempt
+        for k, v in (("speed_mps", speed_mps), ("max_tilt_rad", max_tilt_rad), ("tilt_margin_rad", tilt_margin_rad),
+                     ("table_clearance_m", table_clearance_m), ("corner_margin_m", corner_margin_m),
+                     ("window_s", window_s), ("min_travel_m", min_travel_m), ("min_area_ratio", min_area_ratio),
+                     ("max_jump_m", max_jump_m), ("edge_turn_rad", edge_turn_rad), ("edge_radius_m", edge_radius_m),
+                     ("block_radius_m", block_radius_m), ("local_block_radius_m", local_block_radius_m),
+                     ("retreat_m", retreat_m), ("replan_s", replan_s), ("attempt_s", attempt_s)):
+            self.set_parameter(k, v)
+        #: The map of the touched surface (None before the first contact sample).
+        self.map: FrontierMap | None = None
+        self._map_cloud = None  # the cloud the map was filled from
+        self._seen = 0  # samples of that cloud in the map
+        self.table_z_m = math.nan
+        #: (row, column) of the frontier cell the pad is sliding to, or None.
+        self.target: tuple[int, int] | None = None
+        #: World xy direction of the current (or last) attempt.
+        self.direction = np.zeros(2)
+        #: Targets chosen, attempts ended at the end of the surface, reachable frontier cells at
+        #: the last choice, and why the last attempt ended.
+        self.attempts = 0
+        self.blocks = 0
+        self.candidates = 0
+        self.last_end = ""
+        self._state = "waiting for contact"
+        self._reset_motion()
+
+    def set_parameter(self, name: str, value) -> None:
+        if name in self.parameter_bounds:
+            value = float(value)
+        super().set_parameter(name, value)
+        if name in _END_PARAMETERS:
+            self._end.set_parameter(name, value)
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        self._cloud = self.bb.contacts
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"{self._state}: target {self.attempts}, {self.candidates} frontier cells, {self.blocks} ends"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    # -- the map -----------------------------------------------------------------------------
+    def _update_map(self, point: np.ndarray) -> None:
+        cloud = self._cloud
+        if cloud is not self._map_cloud:  # another mission's cloud: start again
+            self.map, self._map_cloud, self._seen = None, cloud, 0
+        n = len(cloud)
+        if n > self._seen:
+            if self.map is None:
+                self.map = FrontierMap(point[:2], self.cell_m, self.extent_m)
+            self.map.add(cloud.points[self._seen:n], cloud.normals[self._seen:n])
+            self._seen = n
+
+    def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows, columns and outward directions of the reachable, unblocked frontier cells."""
+        m = self.map
+        rows, cols, out = m.frontier()
+        if len(rows) == 0:
+            return rows, cols, out
+        ok = m.tilt(rows, cols) <= self.max_tilt_rad - self.tilt_margin_rad
+        if math.isfinite(self.table_z_m):  # the object's foot at the table is no frontier
+            ok &= m.z_max[rows, cols] > self.table_z_m + self.table_clearance_m
+        ok &= ~m.blocked[rows, cols, _sector(out)]
+        return rows[ok], cols[ok], out[ok]
+
+    # -- the pad -----------------------------------------------------------------------------
+    def _contact_point(self) -> np.ndarray | None:
+        """Where the pad touches (world), low-passed over ``_POINT_FILTER_S``: on a soft or
+        lumpy object the largest contact region, and with it the centre of pressure, may jump
+        between parts of the imprint from one cycle to the next; None out of contact."""
+        f = self.features_raw
+        if not f.in_contact:
+            self._point = None
+            return None
+        T = self.pose
+        x, y = f.cop_xy
+        point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+        if self._point is None:
+            self._point = point
+        else:
+            self._point = self._point + (point - self._point) * min(1.0, self.dt / _POINT_FILTER_S)
+        return self._point
+
+    def _clearance(self) -> tuple[float, np.ndarray]:
+        """Height (m) of the pad's lowest corner above the table, and the corner (world)."""
+        if not math.isfinite(self.table_z_m):
+            return math.inf, np.zeros(3)
+        corner = lowest_corner(self.pose, self.pad, self.corner_margin_m)
+        return float(corner[2] - self.table_z_m), corner
+
+    def _tilt_cos(self) -> float:
+        """Cosine of the pad's tilt from the vertical."""
+        return -float(self.pose[2, 2])
+
+    def _guide(self, world: np.ndarray | None) -> None:
+        """Write the guidance along the world direction ``world`` (zero when None), slower as
+        the contact nears the pad's border: sliding drags the contact towards the trailing
+        side, and off the pad when it sits near the border already (see ``table_offset``)."""
+        norm = 0.0 if world is None else float(np.linalg.norm(world))
+        if norm < 1e-12:
+            write(self.key, _ZERO_TWIST)
+            return
+        speed = self.speed_mps
+        f = self.features_raw
+        if f.in_contact:
+            w, h = self.pad.size_m
+            x, y = f.cop_xy
+            margin = min(0.5 * w - abs(x), 0.5 * h - abs(y))
+            speed *= min(1.0, max(_SLOWEST, (margin - _BORDER_STOP_M) / (_BORDER_SLOW_M - _BORDER_STOP_M)))
+        write(self.key, tangent_guidance(self.pose, world / norm, speed))
+
+    # -- attempts ----------------------------------------------------------------------------
+    def _reset_motion(self) -> None:
+        self.target = None
+        self._next_plan = -math.inf
+        self._avoid: np.ndarray | None = None  # the way the last attempt ended
+        self._retreat: tuple | None = None
+        self._last_point: np.ndarray | None = None
+        self._point: np.ndarray | None = None  # the low-passed contact point
+        self._start_tilt_cos = -2.0
+
+    def _choose(self, point: np.ndarray) -> bool:
+        """Choose the next target from ``point`` (world), or start backing off from the table
+        when every reachable frontier lies downhill of the pad's lowest corner; False when no
+        reachable frontier is left."""
+        rows, cols, out = self._candidates()
+        self.candidates = len(rows)
+        if not len(rows):
+            return False
+        self._start_tilt_cos = self._tilt_cos() - _LEVEL_MARGIN_COS
+        centres = self.map.centre_of(rows, cols)
+        delta = centres - point[:2]
+        dist = np.linalg.norm(delta, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            heading = np.where(dist[:, None] > 1e-9, delta / dist[:, None], out)
+        cost = dist.copy()
+        if np.any(self.direction):  # keep going the same way when it is about as near
+            cost *= 1.0 + 0.5 * (1.0 - heading @ self.direction)
+        if self._avoid is not None:  # just ended that way: another way if there is one
+            away = heading @ self._avoid < 0.5
+            if np.any(away):
+                cost = np.where(away, cost, np.inf)
+            self._avoid = None
+        clearance, corner = self._clearance()
+        if clearance < 2 * self.table_clearance_m:  # near the table: not towards the lowest corner
+            low = corner[:2] - self.pose[:2, 3]
+            low = low / max(float(np.linalg.norm(low)), 1e-9)
+            up = heading @ low < 0.3
+            if not np.any(up):  # every way left leads down: first gain height, then see
+                self._start_retreat(point, "near the table", -low)
+                return True
+            cost = np.where(up, cost, np.inf)
+        k = int(np.argmin(cost))
+        self.target = (int(rows[k]), int(cols[k]))
+        self._target_out = out[k]
+        self._target_xy = centres[k]
+        self._target_z = float(self.map.z_max[self.target])
+        self._deadline = self.now + dist[k] / self.speed_mps + self.attempt_s
+        self._clearance_start = clearance
+        self.attempts += 1
+        self._end.initialise()
+        self._steer(point)
+        return True
+
+    def _steer(self, point: np.ndarray) -> np.ndarray:
+        """Set :attr:`direction` (world xy) towards the target and return the world direction
+        the pad slides along: towards the highest sample of the target cell, or once there,
+        outwards across it."""
+        delta = self._target_xy - point[:2]
+        dist = float(np.linalg.norm(delta))
+        if dist > self.cell_m:
+            self.direction = delta / dist
+            return np.array([delta[0], delta[1], self._target_z - point[2]])
+        self.direction = self._target_out
+        return np.array([self.direction[0], self.direction[1], 0.0])
+
+    def _attempt_end(self, point: np.ndarray) -> tuple[str, bool]:
+        """Why the current attempt has come to an end ("" while it goes on), and whether at an
+        edge under the pad."""
+        if self._end.update() != Status.RUNNING:
+            if (self._end.cause == "jump" and math.isfinite(self.table_z_m)
+                    and point[2] > self.table_z_m + self.table_clearance_m):
+                # not onto the table (known): another part of the same contact, e.g. on a soft,
+                # lumpy object; go on
+                self._end.initialise()
+                return "", False
+            return self._end.feedback_message, self._end.cause in _EDGE_CAUSES
+        clearance, _ = self._clearance()
+        if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:
+            return f"the pad's corner {clearance * 1e3:.1f} mm above the table", False
+        if self.now > self._deadline:
+            return "target not reached in time", False
+        return "", False
+
+    def _block(self, point: np.ndarray, why: str, at_edge: bool = False) -> None:
+        """Block the frontier the attempt was heading for, in its direction."""
+        if at_edge:  # the surface ends at an edge under the pad: as far as the pad reaches
+            radius, centre = self.block_radius_m or self.pad.half_width_m, self.pose[:3, 3]
+        else:  # too steep, the table, stuck: only this part of the frontier is out of reach
+            radius, centre = self.local_block_radius_m, point
+        d = self.direction if np.any(self.direction) else self._target_out
+        self.map.block(centre[:2], radius, d)
+        self.map.block(point[:2], 2 * self.cell_m, d)
+        if self.target is not None:
+            # the target and the frontier on the way to it, out of reach along this way
+            rows, cols, out = self.map.frontier()
+            xy = self.map.centre_of(rows, cols)
+            a, b = point[:2], self._target_xy
+            ab = b - a
+            u = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+            on_way = np.linalg.norm(xy - (a + u[:, None] * ab), axis=1) <= self.local_block_radius_m
+            on_way |= (rows == self.target[0]) & (cols == self.target[1])
+            self.map.block_cells(rows[on_way], cols[on_way], out[on_way])
+        self.blocks += 1
+        self.last_end = why
+        self._avoid = np.array(d, dtype=float)
+        self.target = None
+
+    def _start_retreat(self, point: np.ndarray, why: str, away: np.ndarray | None = None) -> None:
+        """Back off, uphill and away from the way the attempt went (or along ``away``, world
+        xy), at least ``retreat_m``, until the pad is about as level as where the attempt
+        started and clear of the table: it may have rolled over an edge or down a slope."""
+        if away is None:
+            away = -(self.direction if np.any(self.direction) else self._target_out)
+        direction = np.array([away[0], away[1], 1.0])  # the world's up is uphill on the pad
+        self._retreat = (direction, point[:2].copy(), self.now + self.attempt_s, why)
+
+    def _retreating(self, point: np.ndarray) -> bool:
+        """Steer the retreat; False once it is over."""
+        direction, origin, until, why = self._retreat
+        back = float(np.hypot(*(point[:2] - origin)))
+        level = self._tilt_cos() >= self._start_tilt_cos and self._clearance()[0] >= 2 * self.table_clearance_m
+        if (level and back >= self.retreat_m) or self.now > until:
+            self._retreat = None
+            return False
+        self._guide(direction)
+        self._state = f"backing off ({why})"
+        return True
+
+    # -- the life cycle ----------------------------------------------------------------------
+    def initialise(self) -> None:
+        self.table_z_m = table_height(self._setup, self.table_key)
+        self._reset_motion()
+        self._guide(None)
+
+    def update(self) -> Status:
+        self._feedback = None
+        point = self._contact_point()
+        if point is None:  # no contact: hold still, the guards decide
+            if self.target is not None and self._last_point is not None:
+                self._block(self._last_point, "contact lost")  # that way is out of reach from here
+            self._retreat = None
+            self._guide(None)
+            self._state = "waiting for contact"
+            return Status.RUNNING
+        self._last_point = point
+        now = self.now
+        if self._retreat is not None and self._retreating(point):
+            return Status.RUNNING
+        if self.target is not None:
+            why, at_edge = self._attempt_end(point)
+            if why:
+                self._block(point, why, at_edge)
+                self._start_retreat(point, why)
+                self._next_plan = now
+                if self._retreating(point):
+                    return Status.RUNNING
+        if now >= self._next_plan:
+            self._next_plan = now + self.replan_s
+            self._update_map(point)
+            if self.map is None:  # nothing recorded yet
+                self._guide(None)
+                self._state = "waiting for the first contacts"
+                return Status.RUNNING
+            if self.target is not None:  # covered meanwhile (or blocked): choose again
+                rows, cols, _ = self._candidates()
+                if not np.any((rows == self.target[0]) & (cols == self.target[1])):
+                    self.target = None
+            if self.target is None:
+                if not self._choose(point):
+                    self._guide(None)
+                    self.feedback_message = (f"no reachable frontier left ({self.attempts} targets, "
+                                             f"{self.blocks} ends of the surface)")
+                    return Status.SUCCESS
+                if self._retreat is not None and self._retreating(point):
+                    return Status.RUNNING
+        if self.target is None:
+            self._guide(None)
+            return Status.RUNNING
+        self._guide(self._steer(point))
+        self._state = "sliding to the frontier"
+        return Status.RUNNING

@@ -1,0 +1,328 @@
+"""Placing the pad on a low object without touching the table: where the contact sits on the pad,
+and how the pad is turned about its normal.
+
+A pad lying tangent to an object touches it at one place and overhangs it everywhere else. Tilted
+by θ on a slope, its border on the downhill side lies ``e·sin θ`` below the contact, ``e`` the
+distance from the contact to that border: half the pad's width when the contact is centred and
+an edge faces downhill, half its diagonal when a corner does. On an object lying on the table
+that border reaches the table long before the contact reaches the object's foot.
+
+- ``table_offset`` moves the contact's target on the pad towards the downhill border, just so far
+  that the pad's lowest corner stays ``clearance_m`` above the table (known from the set-up,
+  ``/setup/table_z_m``): it writes the target centre of pressure to a blackboard key each cycle.
+- ``centre_to`` and ``roll_to`` are ``centre`` and ``roll`` whose target follows that key every
+  cycle (a blackboard reference is read only when a leaf starts).
+- ``square_to_slope`` turns the pad about its normal (row ωz) until one of its edges faces
+  downhill, so that its lowest point is an edge, not a corner. It reads the pose only.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from py_trees.common import Access, Status
+
+from tactile_bt import defaults
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.servo import Centre, Roll
+from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
+from tactile_bt.tree.blackboard import read, write
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+
+__all__ = ["TableOffset", "CentreTo", "RollTo", "SquareToSlope"]
+
+
+class TableOffset(TactileBehaviour):
+    """Write the target centre of pressure ``[x, y]`` (m, sensor frame) that keeps the pad's
+    lowest corner ``clearance_m`` above the table to ``key``, every cycle, and slide the pad
+    by as much the other way (rows vx, vy); RUNNING.
+
+    With the pad tilted by θ and the contact ``h`` above the table, the pad's border may reach
+    ``(h - clearance_m) / sin θ`` downhill of the contact. The target is the pad centre moved
+    towards the downhill border until the border lies that far from it, at most ``max_offset_m``
+    from the centre; [0, 0] when the pad lies flat, when the table is far enough below, out of
+    contact, or when no table is known (``table_key`` absent or NaN). The target moves at most
+    ``rate_mps``; as it moves, the leaf slides the pad the opposite way at the same rate, so that
+    the contact stays where it is on the object and only its place on the pad changes (rolling
+    to a target downhill of the contact would carry the contact downhill too).
+
+    Parameters
+    ----------
+    key : str
+        Blackboard key of the target (m, sensor frame).
+    clearance_m : float
+        Height the pad's lowest corner keeps above the table (m).
+    max_offset_m : float
+        Largest distance of the target from the pad centre (m).
+    rate_mps : float
+        Largest speed of the target on the pad (m/s).
+    smoothing_s : float
+        Time constant of the low-pass filter on the wanted target (s).
+    table_key : str
+        Blackboard key of the table's height (m, world z).
+    """
+
+    uses = frozenset({"cop"})
+    fixed_parameters = frozenset({"name", "key", "table_key"})
+    parameter_bounds = {"clearance_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "rate_mps": POSITIVE,
+                        "smoothing_s": POSITIVE}
+
+    def __init__(self, name: str = "table_offset", key: str = "/scan/cop_target", clearance_m: float = 0.006,
+                 max_offset_m: float = 0.03, rate_mps: float = 0.02, smoothing_s: float = 0.2,
+                 table_key: str = TABLE_Z_KEY) -> None:
+        super().__init__(name)
+        self.key = normalise_key(key)
+        self.table_key = normalise_key(table_key)
+        self._writer = self.attach_blackboard_client(name=f"{name}/target")
+        self._writer.register_key(key=self.key, access=Access.WRITE)
+        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+        self._setup.register_key(key=self.table_key, access=Access.READ)
+        for k, v in (("clearance_m", clearance_m), ("max_offset_m", max_offset_m), ("rate_mps", rate_mps),
+                     ("smoothing_s", smoothing_s)):
+            self.set_parameter(k, float(v))
+        self.table_z_m = math.nan
+        self.target = np.zeros(2)
+        self._goal = np.zeros(2)
+        write(self.key, (0.0, 0.0))
+
+    def initialise(self) -> None:
+        self.table_z_m = table_height(self._setup, self.table_key)
+        write(self.key, tuple(self.target))
+
+    def wanted(self, pose: np.ndarray, contact_z: float) -> np.ndarray:
+        """The target (m, sensor frame) for the pad at ``pose`` touching at height ``contact_z``
+        (m, world), before the rate limit."""
+        if not math.isfinite(self.table_z_m):
+            return np.zeros(2)
+        down = -pose[2, :2]  # world -z in the sensor frame, its part in the pad plane
+        sin_tilt = float(np.hypot(down[0], down[1]))
+        if sin_tilt < 1e-3:
+            return np.zeros(2)
+        u = down / sin_tilt
+        reach = max(0.0, contact_z - self.table_z_m - self.clearance_m) / sin_tilt
+        extent = float(np.max(self.pad.corners_m()[:, :2] @ u))  # centre to the lowest corner, along u
+        offset = min(max(extent - reach, 0.0), self.max_offset_m)
+        return offset * u
+
+    def update(self) -> Status:
+        f = self.features
+        if f.in_contact:
+            T = self.pose
+            x, y = f.cop_xy
+            z = float(T[2, 0] * x + T[2, 1] * y + T[2, 3])
+            # the wanted target, low-passed: the contact's height over sin(tilt) is noisy
+            self._goal += (self.wanted(T, z) - self._goal) * min(1.0, self.dt / self.smoothing_s)
+            step = self._goal - self.target
+            n = float(np.hypot(step[0], step[1]))
+            limit = self.rate_mps * self.dt
+            if n > limit:
+                step = step * (limit / n)
+            self.target = self.target + step
+            # Slide the pad the other way as the target moves: the contact then stays where it is
+            # on the object and arrives at the new target without an error for roll to correct
+            # (rolling towards a target downhill of the contact would carry the contact
+            # downhill, tilt the pad further and ask for a larger offset).
+            if n > 0:
+                self.command.add(self.name, (-step[0] / self.dt, -step[1] / self.dt, 0.0, 0.0, 0.0, 0.0))
+        write(self.key, (float(self.target[0]), float(self.target[1])))
+        self._feedback = None
+        return Status.RUNNING
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"target [{self.target[0] * 1e3:.1f}, {self.target[1] * 1e3:.1f}] mm"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+
+class _FollowKey:
+    """Mixin of the servo leaves whose COP target follows a blackboard key every cycle."""
+
+    def _bind_target_key(self, name: str, target_key: str) -> None:
+        self.target_key = normalise_key(target_key)
+        self._target_client = self.attach_blackboard_client(name=f"{name}/target")
+        self._target_client.register_key(key=self.target_key, access=Access.READ)
+
+    def targets(self):
+        try:
+            x, y = read(self.target_key)
+        except KeyError:
+            x, y = self.target_m
+        return (float(x), float(y)), 0.0, 0.0
+
+
+class CentreTo(_FollowKey, Centre):
+    """``centre`` with its target centre of pressure read from ``target_key`` every cycle (m,
+    sensor frame; ``target_m`` while the key is not set), e.g. written by ``table_offset``.
+
+    Parameters
+    ----------
+    target_key : str
+        Blackboard key of the target ``[x, y]`` (m, sensor frame).
+    target_m : list of float
+        Target while the key is not set (m).
+    kp : float
+        Proportional gain ((m/s)/m = 1/s), both axes.
+    ki : float
+        Integral gain (1/s²).
+    kd : float
+        Derivative gain (dimensionless).
+    output_limit : float
+        Largest sliding speed per axis (m/s).
+    """
+
+    fixed_parameters = frozenset({"name", "target_key"})
+
+    def __init__(self, name: str = "centre_to", target_key: str = "/scan/cop_target",
+                 target_m: Sequence[float] = (0.0, 0.0), kp: float = defaults.CENTRE_KP,
+                 ki: float = defaults.CENTRE_KI, kd: float = defaults.CENTRE_KD,
+                 output_limit: float = defaults.CENTRE_LIMIT_MPS) -> None:
+        super().__init__(name, target_m, kp, ki, kd, output_limit)
+        self._bind_target_key(name, target_key)
+
+
+class RollTo(_FollowKey, Roll):
+    """``roll`` with its target centre of pressure read from ``target_key`` every cycle (m,
+    sensor frame; ``target_m`` while the key is not set), e.g. written by ``table_offset``.
+
+    It rolls the pad about the contact, not about the pad centre: with the contact ``(x, y)``
+    away from the centre, turning by ``(ωx, ωy)`` about the centre would also move the contact
+    along the normal by ``ωx·y − ωy·x`` and press the pad in or lift it off, which the force
+    hold then has to undo (on a stiff object it starts oscillating). The leaf adds the opposite
+    normal speed (row vz); for a contact at the centre, the paper's case, that is zero.
+
+    Parameters
+    ----------
+    target_key : str
+        Blackboard key of the target ``[x, y]`` (m, sensor frame).
+    target_m : list of float
+        Target while the key is not set (m).
+    kp : float
+        Proportional gain of the position rate ((m/s)/m = 1/s).
+    ki : float
+        Integral gain (1/s²).
+    kd : float
+        Derivative gain (dimensionless).
+    output_limit : float
+        Largest position rate per axis (m/s), i.e. ``output_limit / roll_radius`` rad/s.
+    """
+
+    fixed_parameters = frozenset({"name", "target_key", "roll_radius"})
+
+    def __init__(self, name: str = "roll_to", target_key: str = "/scan/cop_target",
+                 target_m: Sequence[float] = (0.0, 0.0), kp: float = defaults.ROLL_KP,
+                 ki: float = defaults.ROLL_KI, kd: float = defaults.ROLL_KD,
+                 output_limit: float = defaults.ROLL_LIMIT_MPS) -> None:
+        super().__init__(name, target_m, kp, ki, kd, output_limit)
+        self._bind_target_key(name, target_key)
+
+    def update(self) -> Status:
+        status = super().update()
+        wx, wy = self._last_twist[3], self._last_twist[4]
+        if wx or wy:
+            x, y = self.features.cop_xy
+            self.command.add(self.name, (0.0, 0.0, wy * x - wx * y, 0.0, 0.0, 0.0))
+        return status
+
+
+#: ``square_to_slope`` keeps turning to the same edge until another is nearer by this much (rad).
+_HYSTERESIS_RAD = math.radians(10.0)
+
+
+class SquareToSlope(TactileBehaviour):
+    """Turn the pad about its normal (row ωz) until one of its edges faces downhill: the
+    direction of steepest descent in the pad's plane lies along ±x or ±y of the sensor frame,
+    so the pad's lowest point is an edge, not a corner. Adds ``ωz = kp · error`` (at most
+    ``output_limit``) while the pad is tilted more than ``min_tilt_rad`` and in contact; RUNNING.
+    The error comes from the pose alone. The pad turns about the contact (the centre of
+    pressure ``(x, y)``: it adds ``vx = ωz·y, vy = −ωz·x``), so that a contact away from the
+    centre keeps its place on the pad instead of being swept towards the border.
+
+    Of the four edges it turns to the nearest one, unless that would take the pad more than
+    ``max_turn_rad`` from where it was when the leaf started (it counts its own turns): going
+    round an object, the pad would otherwise wind up its wrist joint to the limit.
+
+    Parameters
+    ----------
+    kp : float
+        Proportional gain ((rad/s)/rad = 1/s).
+    output_limit : float
+        Largest turning rate (rad/s).
+    min_tilt_rad : float
+        Below this tilt from the vertical the pad is level enough: nothing is added (rad).
+    max_turn_rad : float
+        Largest turn about the pad normal from the start (rad, either way).
+    """
+
+    uses = frozenset({"cop"})
+    parameter_bounds = {"kp": NON_NEGATIVE, "output_limit": POSITIVE, "min_tilt_rad": between(0, math.pi / 2),
+                        "max_turn_rad": between(math.pi / 4, math.pi)}
+
+    def __init__(self, name: str = "square_to_slope", kp: float = 1.0, output_limit: float = 0.5,
+                 min_tilt_rad: float = math.radians(5.0), max_turn_rad: float = math.radians(120.0)) -> None:
+        super().__init__(name)
+        for k, v in (("kp", kp), ("output_limit", output_limit), ("min_tilt_rad", min_tilt_rad),
+                     ("max_turn_rad", max_turn_rad)):
+            self.set_parameter(k, float(v))
+        self.error_rad = math.nan
+        self.turned_rad = 0.0
+
+    def initialise(self) -> None:
+        self.turned_rad = 0.0
+        self.error_rad = math.nan
+
+    def error(self, pose: np.ndarray) -> float:
+        """Turn (rad, about +z of the sensor frame) that brings a pad axis onto the downhill
+        direction: the nearest one within ``max_turn_rad`` of the start; NaN when the pad is
+        level within ``min_tilt_rad``."""
+        down = -pose[2, :2]
+        if math.hypot(down[0], down[1]) < math.sin(self.min_tilt_rad):
+            return math.nan
+        angle = math.atan2(down[1], down[0])  # of the downhill direction, from +x towards +y
+        # turning the pad by +δ turns the direction in its frame by -δ: the turns that put an
+        # axis on it are angle - k·90°
+        quarter = math.pi / 2
+        nearest = angle - round(angle / quarter) * quarter
+        last = self.error_rad
+
+        def cost(e: float) -> float:  # the nearest edge, the one turned to before by 10° more
+            switch = last == last and abs(e - last) > quarter / 2
+            return abs(e) + (_HYSTERESIS_RAD if switch else 0.0)
+
+        choices = sorted((nearest + k * quarter for k in (-2, -1, 0, 1, 2)), key=cost)
+        for e in choices:
+            if abs(self.turned_rad + e) <= self.max_turn_rad:
+                return e
+        return min(choices, key=lambda e: abs(self.turned_rad + e))
+
+    def update(self) -> Status:
+        self.error_rad = e = self.error(self.pose)
+        if e != e or not self.features.in_contact:
+            self.feedback_message = "level" if e != e else "no contact"
+            return Status.RUNNING
+        w = max(-self.output_limit, min(self.output_limit, self.kp * e))
+        x, y = self.features.cop_xy  # turn about the contact: it keeps its place on the pad
+        self.command.add(self.name, (w * y, -w * x, 0.0, 0.0, 0.0, w))
+        self.turned_rad += w * self.dt
+        self._feedback = None
+        return Status.RUNNING
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            return f"error {math.degrees(self.error_rad):+.1f}°, turned {math.degrees(self.turned_rad):+.0f}°"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message

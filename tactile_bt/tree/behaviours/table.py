@@ -1,0 +1,146 @@
+"""The table the object lies on: part of the robot's known set-up, never of the object.
+
+Its height reaches the tree through the blackboard key ``/setup/table_z_m`` (:data:`TABLE_Z_KEY`,
+m, world z of the table's surface): the mission writes the scene's ``table`` there when it
+starts (NaN when the scene has none), and on a real cell the calibrated height comes the same
+way (``--blackboard /setup/table_z_m=...``). Absent or NaN means "no table known": every test
+below is then off.
+
+:func:`pad_clearance` is the height of the pad's lowest corner above the table, through the
+forward kinematics ``T_gs``; the ``table_clearance`` guard fails the branch when it drops below
+a limit, and the frontier planner (:mod:`tactile_bt.tree.behaviours.frontier`) turns back before
+that. ``record_contacts: {table_margin_m: ...}`` leaves out the contacts at the table's height.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Access, Status
+
+from tactile_bt.sense.geometry import PadGeometry
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
+
+__all__ = ["TABLE_Z_KEY", "TableClearance", "pad_clearance", "lowest_corner", "table_height", "write_table_height"]
+
+#: Blackboard key of the table's height (m, world z of its surface; NaN or absent: no table).
+TABLE_Z_KEY = "/setup/table_z_m"
+
+
+def lowest_corner(pose: np.ndarray, pad: PadGeometry, margin_m: float = 0.0) -> np.ndarray:
+    """The world position (m) of the lowest of the pad's four corners at ``pose`` (``T_gs``),
+    the sensing area grown by ``margin_m`` on every side (the pad's frame around it)."""
+    corners = pad.corners_m()
+    if margin_m > 0:
+        corners = corners + np.sign(corners) * np.array([margin_m, margin_m, 0.0])
+    world = corners @ pose[:3, :3].T + pose[:3, 3]
+    return world[int(np.argmin(world[:, 2]))]
+
+
+def pad_clearance(pose: np.ndarray, pad: PadGeometry, table_z_m: float, margin_m: float = 0.0) -> float:
+    """Height (m) of the pad's lowest corner (:func:`lowest_corner`) above the table at
+    ``table_z_m``; ``inf`` when no table is known (NaN)."""
+    if not math.isfinite(table_z_m):
+        return math.inf
+    return float(lowest_corner(pose, pad, margin_m)[2] - table_z_m)
+
+
+def table_height(client, key: str = TABLE_Z_KEY) -> float:
+    """The table height on the blackboard through ``client`` (which registered ``key`` for
+    reading), NaN when absent; ValueError for a value that is not a number."""
+    if not client.exists(key):
+        return math.nan
+    value = client.get(key)
+    try:
+        z = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"blackboard key {key!r} must hold the table height in m, got {value!r}") from None
+    if math.isinf(z):
+        raise ValueError(f"blackboard key {key!r} must hold a finite table height (or NaN: no table), got {z}")
+    return z
+
+
+class TableClearance(TactileBehaviour):
+    """Guard: RUNNING while the pad's lowest corner stays at least ``min_clearance_m`` above the
+    table of the set-up (``table_key``, read when the guard starts); FAILURE below it, with the
+    clearance and the corner in the message. RUNNING (and never failing) when no table is known.
+
+    The corners are those of the sensing area grown by ``margin_m`` (the pad's frame), carried
+    to the world through ``T_gs``: the forward kinematics, not a contact, so the guard trips
+    before the pad's border touches the table.
+
+    Parameters
+    ----------
+    min_clearance_m : float
+        Least height of the lowest corner above the table (m; may be negative to allow the
+        corner to press into a soft table cover).
+    margin_m : float
+        Width of the pad's frame around the sensing area (m).
+    table_key : str
+        Blackboard key of the table's height (m, world z).
+    """
+
+    fixed_parameters = frozenset({"name", "table_key"})
+    parameter_bounds = {"margin_m": NON_NEGATIVE}
+
+    def __init__(self, name: str = "table_clearance", min_clearance_m: float = 0.001, margin_m: float = 0.0,
+                 table_key: str = TABLE_Z_KEY) -> None:
+        super().__init__(name)
+        self.set_parameter("min_clearance_m", min_clearance_m)
+        self.set_parameter("margin_m", margin_m)
+        self.table_key = normalise_key(table_key)
+        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+        self._setup.register_key(key=self.table_key, access=Access.READ)
+        self.table_z_m = math.nan
+        self.clearance_m = math.inf
+
+    def set_parameter(self, name: str, value) -> None:
+        if name == "min_clearance_m" and not math.isfinite(value):
+            raise ValueError(f"{self.name}: min_clearance_m must be finite, got {value}")
+        if name == "margin_m" and not value >= 0:
+            raise ValueError(f"{self.name}: margin_m must not be negative, got {value}")
+        super().set_parameter(name, float(value) if name in ("min_clearance_m", "margin_m") else value)
+
+    def initialise(self) -> None:
+        self.table_z_m = table_height(self._setup, self.table_key)
+
+    def update(self) -> Status:
+        if not math.isfinite(self.table_z_m):
+            self.feedback_message = "no table in the set-up"
+            return Status.RUNNING
+        corner = lowest_corner(self.pose, self.pad, self.margin_m)
+        self.clearance_m = clearance = float(corner[2] - self.table_z_m)
+        if clearance < self.min_clearance_m:
+            self.feedback_message = (f"the pad's corner is {clearance * 1e3:.1f} mm above the table "
+                                     f"(limit {self.min_clearance_m * 1e3:.1f} mm) at x {corner[0] * 1e3:.0f}, "
+                                     f"y {corner[1] * 1e3:.0f} mm")
+            return Status.FAILURE
+        self._feedback = None
+        return Status.RUNNING
+
+    # Formatted only when somebody reads it (not every cycle).
+    @property
+    def feedback_message(self) -> str:
+        if self._feedback is None:
+            if not math.isfinite(self.table_z_m):
+                return "no table in the set-up"
+            return f"clearance {self.clearance_m * 1e3:.1f} mm"
+        return self._feedback
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+
+def write_table_height(table_z_m: float, key: str = TABLE_Z_KEY) -> None:
+    """Put the set-up's table height (m, world z; NaN: no table) on the blackboard at ``key``,
+    as the mission does when it starts."""
+    import py_trees
+
+    client = py_trees.blackboard.Client(name="setup")
+    client.register_key(key=normalise_key(key), access=Access.WRITE)
+    client.set(normalise_key(key), float(table_z_m))
