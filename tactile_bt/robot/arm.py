@@ -39,6 +39,15 @@ iteration on the combined arm and contact stiffness, stable from 1e2 to 1e7 N/m;
 :func:`point_wrench` and :func:`bracket_stiffness`, which this module re-exports) and is
 described there.
 
+Compiled step
+-------------
+When the contact model offers ``arm_step`` (the simulated pad does, :class:`tactile_bt.sim.pad.PadContact`),
+:meth:`CompliantArm.move` and the quasi-static :meth:`CompliantArm.step` run in one compiled
+kernel (:mod:`tactile_bt.robot.kernels`): resolved rates, the equilibrium posture's motion and
+the contact equilibrium.  The rare steps it hands back (a joint that saturates, a step that needs
+the bracketing line search) are finished by the Python solvers described here, from the same
+state.  Any other contact model (a Python callable) uses the Python solvers throughout.
+
 Redundancy
 ----------
 The seventh joint is used: :meth:`CompliantArm.joint_velocities` adds the null-space motion of
@@ -61,6 +70,7 @@ from tactile_bt.robot.equilibrium import (
     bracket_stiffness,
     point_wrench,
 )
+from tactile_bt.robot import kernels
 from tactile_bt.robot.kinematics import LWR4Kinematics, Q_READY, RateSolution
 from tactile_bt.robot.redundancy import LimitAvoidance
 from tactile_bt.sense.geometry import PadGeometry
@@ -160,6 +170,12 @@ class CompliantArm(EquilibriumSolverMixin):
         self._H: np.ndarray | None = None  # quasi-Newton matrix carried between solves
         self._H_Kd = np.zeros(7)
         self._kin_cache: tuple | None = None
+        # compiled step: packed stiffness, damping and null-space objective (for the objects
+        # they were made from), in/out state, output
+        self._arm_key: tuple = ()
+        self._arm_packed = np.zeros(kernels.ARM_SIZE)
+        self._io = np.zeros(kernels.IO_SIZE)
+        self._out = np.zeros(kernels.OUT_SIZE)
         #: Default contact model of :meth:`step` and :meth:`move` (a :data:`WrenchFn`), e.g. set
         #: by the world to the pad-object contact; ``None``: no contact.
         self.contact: WrenchFn | None = None
@@ -235,6 +251,14 @@ class CompliantArm(EquilibriumSolverMixin):
         (4, 4) ndarray
             The new actual sensor pose ``T_gs``.
         """
+        compiled = self._compiled_contact(wrench_fn, wrench_g)
+        if compiled is not None:
+            V = np.asarray(twist_g, dtype=float)
+            if V.shape != (6,) or not np.all(np.isfinite(V)):
+                raise ValueError(f"twist_g must be 6 finite numbers, got {twist_g!r}")
+            _check_dt(dt)
+            if self._compiled_step(compiled, dt, twist=V):
+                return self.T_gs
         return self.step(dt, self.joint_velocities(twist_g, dt), wrench_g=wrench_g, wrench_fn=wrench_fn)
 
     def step(self, dt: float, q_dot_cmd=None, wrench_g=None, wrench_fn: WrenchFn | None = None) -> np.ndarray:
@@ -259,12 +283,17 @@ class CompliantArm(EquilibriumSolverMixin):
         (4, 4) ndarray
             The new actual sensor pose ``T_gs``.
         """
-        if not (np.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+        _check_dt(dt)
+        qd = None
         if q_dot_cmd is not None:
             qd = np.asarray(q_dot_cmd, float)
             if qd.shape != (7,) or not np.all(np.isfinite(qd)):
                 raise ValueError(f"q_dot_cmd must be 7 finite numbers, got {q_dot_cmd!r}")
+        compiled = self._compiled_contact(wrench_fn, wrench_g)
+        if compiled is not None:
+            self._compiled_step(compiled, dt, q_dot=qd)
+            return self.T_gs
+        if qd is not None:
             self.q_eq = self.kin.clip(self.q_eq + dt * qd)
         src = WrenchSource(self.contact if wrench_fn is None else wrench_fn, wrench_g)
         q_prev = self.q.copy()
@@ -326,6 +355,64 @@ class CompliantArm(EquilibriumSolverMixin):
         return res
 
     # ------------------------------------------------------------------ internals
+    def _compiled_contact(self, wrench_fn, wrench_g):
+        """The contact model whose ``arm_step`` takes the step, or None (Python solvers)."""
+        if wrench_g is not None or self.mode != "quasi_static":
+            return None
+        contact = self.contact if wrench_fn is None else wrench_fn
+        return contact if hasattr(contact, "arm_step") else None
+
+    def _compiled_step(self, contact, dt: float, twist=None, q_dot=None) -> bool:
+        """One quasi-static step in the compiled kernel (module docstring).
+
+        With ``twist``: resolved rates too; False when they need the Python saturation loop
+        (nothing was changed).  With ``q_dot`` (or neither: hold): always True.  A step whose
+        equilibrium the kernel hands back is finished by the Python solver.
+        """
+        key = (id(self.K), id(self.D), id(self.redundancy))
+        if key != self._arm_key:
+            self._arm_packed = kernels.pack_arm(self.K, self.D, self.redundancy)
+            self._arm_key = key
+        io, out = self._io, self._out
+        io[kernels.I_QEQ:kernels.I_QEQ + 7] = self.q_eq
+        io[kernels.I_Q:kernels.I_Q + 7] = self.q
+        mode = 0.0
+        if twist is not None:
+            io[kernels.I_TWIST:kernels.I_TWIST + 6] = twist
+            mode = 2.0
+        elif q_dot is not None:
+            io[kernels.I_QDCMD:kernels.I_QDCMD + 7] = q_dot
+            mode = 1.0
+        io[kernels.I_DT:] = (dt, mode, self.ik_damping, self.sigma_threshold, self.max_step_m, self.tol,
+                             self.max_iter, self.pad_radius)
+        status = contact.arm_step(self.kin.packed, self._arm_packed, io, out)
+        if status == kernels.STATUS_RATES:
+            return False
+        if mode == 2.0:
+            self.last_rate = RateSolution(out[kernels.O_QD:kernels.O_QD + 7].copy(), float(out[kernels.O_LAM]),
+                                          float(out[kernels.O_SMIN]), np.zeros(7, dtype=bool),
+                                          float(out[kernels.O_SCALE]),
+                                          out[kernels.O_RRES:kernels.O_RRES + 6].copy())
+        q_prev = self.q
+        self.q_eq = io[kernels.I_QEQ:kernels.I_QEQ + 7].copy()
+        if status == kernels.STATUS_NONFINITE:
+            raise FloatingPointError(f"the contact model returned a non-finite wrench near T_gs=\n{self._T}")
+        if status == kernels.STATUS_NEWTON:
+            res = self._solve(WrenchSource(contact, None), self.q_eq, q_prev, self.D / dt, q_prev, self.tol,
+                              self.max_iter)
+            self._accept(res)
+            self.q_dot = (self.q - q_prev) / dt
+            return True
+        q = io[kernels.I_Q:kernels.I_Q + 7].copy()
+        T = out[kernels.O_T:kernels.O_T + 16].reshape(4, 4).copy()
+        J = out[kernels.O_J:kernels.O_J + 42].reshape(6, 7).copy()
+        res = SettleResult(q, T, out[kernels.O_W:kernels.O_W + 6].copy(), float(out[kernels.O_RES]),
+                           int(out[kernels.O_IT]), int(out[kernels.O_EVAL]), bool(out[kernels.O_CONV]))
+        self._accept(res)
+        self._kin_cache = (q.copy(), T, J)
+        self.q_dot = io[kernels.I_QDOT:kernels.I_QDOT + 7].copy()
+        return True
+
     def _accept(self, res: SettleResult) -> None:
         self.q = res.q
         self._T = res.T_gs
@@ -353,6 +440,11 @@ class CompliantArm(EquilibriumSolverMixin):
         w_new, _ = src(T_new)
         r = self.K * (q_new - self.q_eq) - J_new.T @ w_new
         return SettleResult(q_new, T_new, w_new, float(np.max(np.abs(r))), 1, src.calls, True)
+
+
+def _check_dt(dt) -> None:
+    if not (np.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
 
 
 def _per_joint(value, name: str, positive: bool) -> np.ndarray:

@@ -49,6 +49,7 @@ from tactile_bt.robot.lwr4_params import (
     QD_MAX,
     default_mount,
 )
+from tactile_bt.robot.kernels import pack_kinematics
 from tactile_bt.robot.resolved_rate import RateSolution, ResolvedRateMixin, damped_least_squares
 
 __all__ = [
@@ -126,6 +127,17 @@ class LWR4Kinematics(ResolvedRateMixin):
     def base(self, T: np.ndarray) -> None:
         self._base = _check_pose(T, "base")
         self._base_list = tuple(self._base[:3, i].tolist() for i in range(4))
+        self._packed = None
+
+    @property
+    def packed(self) -> np.ndarray:
+        """The model as the compiled kernels read it (:func:`tactile_bt.robot.kernels.pack_kinematics`),
+        made at the first use and again when :attr:`base` is set; the DH table, mount and limits
+        are read once (change them by making a new model)."""
+        if self._packed is None:
+            self._packed = pack_kinematics(self.d, self.a, self.alpha, self._base, self.mount, self.q_min,
+                                           self.q_max, self.qd_max)
+        return self._packed
 
     # ------------------------------------------------------------------ forward kinematics
     def _check_q(self, q) -> np.ndarray:

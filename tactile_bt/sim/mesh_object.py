@@ -60,6 +60,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tactile_bt.errors import MeshError
+from tactile_bt.sim import kernels
 from tactile_bt.sim.objects import SimObject
 
 __all__ = ["MeshObject", "MeshGrid", "MeshError", "mesh_grid", "build_grid", "load_mesh", "point_triangle_distance",
@@ -425,6 +426,10 @@ class MeshObject(SimObject):
 
     def local_bounds(self) -> np.ndarray:
         return self.grid.mesh_bounds
+
+    def kernel_shape(self) -> tuple[int, list, np.ndarray]:
+        g = self.grid
+        return kernels.SHAPE_MESH, [*self._grid_lo, self._inv_h, *self._grid_hi, g.border_min], g.values
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         g = self.grid

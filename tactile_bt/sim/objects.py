@@ -34,6 +34,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
+from tactile_bt.sim import kernels
 
 __all__ = ["CONTACT_REFERENCE_AREA_M2", "SimObject", "Table", "Cable", "polyline_from_segments", "object_pose"]
 
@@ -95,6 +96,16 @@ class SimObject:
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (m) of ``(N, 3)`` points given in the object frame."""
         raise NotImplementedError
+
+    def kernel_shape(self) -> tuple[int, list, np.ndarray | None]:
+        """The shape as the compiled pad model reads it (:func:`tactile_bt.sim.kernels.pack_objects`):
+        ``(shape code, parameters, signed-distance grid or None)``."""
+        raise TypeError(f"{type(self).__name__} has no compiled contact model: it needs a kernel_shape()")
+
+    @property
+    def identity_pose(self) -> bool:
+        """True when the object frame is the world's (points are used as they are)."""
+        return self._identity
 
     def local_bounds(self) -> np.ndarray:
         """``(2, 3)`` box ``[min, max]`` in the object frame that contains the object."""
@@ -179,6 +190,9 @@ class Table(SimObject):
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         return points[:, 2] - self.height
+
+    def kernel_shape(self) -> tuple[int, list, None]:
+        return kernels.SHAPE_TABLE, [self.height], None
 
 
 def polyline_from_segments(start, heading_deg: float, segments: list[dict], step: float = 0.001) -> np.ndarray:
@@ -293,6 +307,10 @@ class Cable(SimObject):
 
     def local_bounds(self) -> np.ndarray:
         return self._local_bounds
+
+    def kernel_shape(self) -> tuple[int, list, np.ndarray]:
+        return (kernels.SHAPE_CABLE, [self.radius, self.table_height, self._origin[0], self._origin[1],
+                                      1.0 / self.grid_cell], self._grid)
 
     def lateral_distance(self, xy: np.ndarray) -> np.ndarray:
         """Signed horizontal distance (m) of ``(N, 2)`` points from the centreline (bilinear on a

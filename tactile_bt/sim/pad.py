@@ -12,6 +12,10 @@ Pipeline per frame (all in SI units):
 
 Perception inverts step 4 with the calibration of the same tactels.
 
+Steps 1-4 and the contact wrench a compliant mount feels run as compiled kernels
+(:mod:`tactile_bt.sim.kernels`); the random draws stay with the model's numpy ``Generator``, in
+the same order (one frame gain, then one draw per tactel), so a seed gives the same frames.
+
 Layer: sim.
 """
 
@@ -24,9 +28,9 @@ import numpy as np
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sense.calibration import TactelCalibration
-from tactile_bt.control.spatial import skew
+from tactile_bt.sim import kernels
 
-__all__ = ["SensorParams", "SensorModel"]
+__all__ = ["SensorParams", "SensorModel", "PadContact"]
 
 
 def _gaussian_band(n: int, sigma: float) -> np.ndarray:
@@ -114,83 +118,102 @@ class SensorModel:
         # Tactel (r, c) centre at pad.px_to_m([c, r]) (z = 0) in the sensor frame, row-major.
         rr, cc = np.meshgrid(np.arange(pad.rows), np.arange(pad.cols), indexing="ij")
         xy = pad.px_to_m(np.stack((cc.ravel(), rr.ravel()), axis=1))
-        self._centres = np.column_stack((xy, np.zeros(rr.size)))
+        self._centres = np.ascontiguousarray(np.column_stack((xy, np.zeros(rr.size))))
         o = ((np.arange(s) + 0.5) / s - 0.5) * pad.pitch
         oy, ox = np.meshgrid(o, o, indexing="ij")
-        self._offsets = np.stack((ox.ravel(), oy.ravel(), np.zeros(s * s)), axis=1)
-        #: No point of a tactel is farther than this from its centre (m).
-        self._reach = pad.pitch * np.sqrt(0.5)
-        self._corners = pad.corners_m()
+        self._offsets = np.ascontiguousarray(np.stack((ox.ravel(), oy.ravel(), np.zeros(s * s)), axis=1))
+        self._corners = np.ascontiguousarray(pad.corners_m(), dtype=float)
         self.tactel_area = pad.tactel_area_m2
-        self._broad = None
-        self._broad_corners = None
-        self._broad_objects = None
-        self._last_key = None
-        self._last_samples: list = []
         self._spread_rows = self._spread_cols = None
+        radius = 0
         if p.foam_spread > 0:
             self._spread_rows = _gaussian_band(pad.rows, p.foam_spread)
             self._spread_cols = _gaussian_band(pad.cols, p.foam_spread)
+            radius = max(1, int(np.ceil(2.5 * p.foam_spread)))
+        # What the compiled kernel reads (types fixed: float64 / int64 C arrays, writable).
+        self._padf = np.zeros(kernels.PAD_SIZE)
+        self._padf[kernels.PF_REACH] = pad.pitch * np.sqrt(0.5)  # no point of a tactel is farther from its centre
+        self._padf[kernels.PF_MARGIN] = self.BROAD_PHASE_MARGIN
+        self._padf[kernels.PF_SPREAD] = 1.0 if radius else 0.0
+        self._padf[kernels.PF_RADIUS] = radius
+        self._padf[kernels.PF_NOISE] = p.noise_counts
+        self._padf[kernels.PF_NOISE_REL] = p.noise_relative
+        self._padf[kernels.PF_ADC] = defaults.ADC_MAX
+        eye = np.eye(1)
+        self._Gr = eye if self._spread_rows is None else np.ascontiguousarray(self._spread_rows)
+        self._Gc = eye if self._spread_cols is None else np.ascontiguousarray(self._spread_cols)
+        n = pad.tactels
+        self._force = np.zeros(n)
+        self._z = np.zeros(n)
+        self._raw = np.zeros(n, dtype=np.uint16)
+        self._wK = np.zeros(42)
+        self._T = np.eye(4)
+        self._cal_of = None
+        self._cal = np.zeros((3, n))
+        self._packed: tuple = ()
+        self._objf = np.zeros((1, kernels.OBJ_SIZE))
+        self._grids = np.zeros(1)
+        self._near = np.zeros((1, n), dtype=np.int64)
+        self._nnear = np.zeros(1, dtype=np.int64)
+        self._broad = np.zeros(kernels.BROAD_SIZE)
+        self._job = np.zeros(3)
+        self._last = np.zeros(kernels.LAST_SIZE)
+        self._last_force = np.zeros(n)
 
     # ------------------------------------------------------------------------------------
     #: How far (m) the pad may move before the broad phase is redone.
     BROAD_PHASE_MARGIN = 2.0e-3
 
     def invalidate(self) -> None:
-        """Forget the cached broad phase and penetration (call when objects move)."""
-        self._broad = None
-        self._last_key = None
+        """Forget the packed objects, the broad phase and the last pose's result (call when
+        objects move)."""
+        self._packed = ()
+        self._broad[0] = 0.0
+        self._last[0] = 0.0
 
-    def _broad_phase(self, T_gs: np.ndarray, corners: np.ndarray, objects) -> list:
-        """Per object, the tactels that may touch it while the pad stays within the margin.
+    def _prepare(self, T_gs, objects) -> None:
+        """The pose and the objects as the kernel reads them (objects repacked when the list
+        holds other objects than last time, which also redoes the broad phase)."""
+        packed = self._packed
+        if len(packed) != len(objects) or any(a is not b for a, b in zip(packed, objects)):
+            self._objf, self._grids = kernels.pack_objects(objects, self.params.foam_stiffness, self.tactel_area,
+                                                           len(self._offsets))
+            if not objects:
+                self._objf[0, kernels.F_BLO:kernels.F_BHI + 3] = (np.inf,) * 3 + (-np.inf,) * 3
+            self._near = np.zeros((max(len(objects), 1), self.pad.tactels), dtype=np.int64)
+            self._nnear = np.zeros(max(len(objects), 1), dtype=np.int64)
+            self._broad[0] = 0.0
+            self._last[0] = 0.0
+            self._packed = tuple(objects)
+        self._prepare_calibration()
+        if T_gs is not None:
+            T = np.asarray(T_gs, dtype=float)
+            if T.shape != (4, 4):
+                raise ValueError(f"T_gs must be a 4x4 pose, got shape {T.shape}")
+            self._T[...] = T
 
-        The signed distance is 1-Lipschitz, so a tactel whose centre is farther than its
-        half-diagonal plus the margin from an object cannot touch it.
-        """
-        p = self.params
-        R, t = T_gs[:3, :3], T_gs[:3, 3]
-        lo, hi = corners.min(axis=0), corners.max(axis=0)
-        m = self.BROAD_PHASE_MARGIN
-        centres = None
-        pairs = []
-        for obj in objects:
-            b = obj.bounds()
-            if np.any(hi + m < b[0]) or np.any(lo - m > b[1]):
-                continue
-            if centres is None:
-                centres = self._centres @ R.T + t
-            near = np.flatnonzero(obj.sdf(centres) < self._reach + m)
-            if near.size:
-                local = (self._centres[near][:, None, :] + self._offsets[None, :, :]).reshape(-1, 3)
-                k = 1.0 / (1.0 / p.foam_stiffness + 1.0 / obj.area_stiffness)
-                # scale = k · A_sample: the stiffness of one sub-sample spring (N/m); a tactel's
-                # force is the sum over its samples of scale · depth
-                pairs.append((obj, near, local, k * self.tactel_area / len(self._offsets)))
-        return pairs
+    def _prepare_calibration(self) -> None:
+        cal = self.calibration
+        if cal is not self._cal_of:
+            self._cal = np.ascontiguousarray(np.stack([np.broadcast_to(np.asarray(a, float), self.pad.shape).ravel()
+                                                       for a in (cal.offset, cal.span, cal.force_scale)]))
+            self._cal_of = cal
 
-    def _penetration(self, T_gs: np.ndarray, objects) -> list:
-        """Per touching object: (tactel indices, sample points (m, world), depths (m), stiffness
-        of one sample spring (N/m)). Cached for the last pose, which a compliant mount's contact
-        solve and the next frame usually share."""
-        if self._last_key is not None and objects is self._broad_objects and np.array_equal(T_gs, self._last_key):
-            return self._last_samples
-        R, t = T_gs[:3, :3], T_gs[:3, 3]
-        corners = self._corners @ R.T + t
-        if (self._broad is None or objects is not self._broad_objects
-                or abs(corners - self._broad_corners).max() > self.BROAD_PHASE_MARGIN / 2):
-            self._broad = self._broad_phase(T_gs, corners, objects)
-            self._broad_corners = corners
-            self._broad_objects = objects
-        samples = []
-        normal = R[:, 2]  # the pad presses along +z of the sensor frame
-        for obj, near, local, scale in self._broad:
-            points = local @ R.T + t
-            depth = obj.depth(points, normal)
-            if depth.max() > 0.0:
-                samples.append((near, points, depth, scale))
-        self._last_key = T_gs.copy()
-        self._last_samples = samples
-        return samples
+    def _run(self, mode: int, gain: float = 0.0, kin=None, arm=None, io=None, out=None) -> float:
+        dummy = self._wK
+        return kernels.pad_kernel(mode, self._T, self._centres, self._offsets, self._corners, self._padf, self._objf,
+                                  self._grids, self._near, self._nnear, self._broad, self._job, self._last, self._last_force,
+                                  self._Gr, self._Gc,
+                                  self.pad.rows, self._cal, self._z, gain, self._force, self._wK, self._raw,
+                                  dummy if kin is None else kin, dummy if arm is None else arm,
+                                  dummy if io is None else io, dummy if out is None else out)
+
+    def _draw(self) -> float:
+        """The frame's random draws, in the order of the numpy model: the common gain, then one
+        standard normal per tactel (into ``_z``)."""
+        gain = 1.0 + self.params.noise_common * self.rng.standard_normal()
+        self.rng.standard_normal(out=self._z)
+        return gain
 
     def penetration_by_object(self, T_gs: np.ndarray, objects) -> np.ndarray:
         """Deepest indentation (m) of the pad's sample points into each object, for the pad at
@@ -205,20 +228,21 @@ class SensorModel:
     def force_image(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, float]:
         """Noise-free tactel forces (N) and the largest penetration (m) for the pad at ``T_gs``.
 
-        A broad phase (cached while the pad moves less than ``BROAD_PHASE_MARGIN``) keeps only
-        the tactels that can touch each object; those are integrated over their sub-samples.
+        A broad phase (kept while the pad moves less than ``BROAD_PHASE_MARGIN``) keeps only
+        the tactels that can touch each object; those are integrated over their sub-samples,
+        and the foam spreads the result (:meth:`spread`).
         """
+        self._prepare(T_gs, objects)
+        deepest = self._run(kernels.MODE_FORCE)
+        return self._force.reshape(self.pad.shape).copy(), float(deepest)
+
+    def sense(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, np.ndarray, float]:
+        """:meth:`force_image` and :meth:`raw_frame` in one pass: ``(raw, force, deepest)``."""
+        self._prepare(T_gs, objects)
+        gain = self._draw()
+        deepest = self._run(kernels.MODE_SENSE, gain)
         shape = self.pad.shape
-        samples = self._penetration(T_gs, objects)
-        if not samples:
-            return np.zeros(shape), 0.0
-        force = np.zeros(self.pad.tactels)
-        deepest = 0.0
-        for near, _, depth, scale in samples:
-            deepest = max(deepest, float(depth.max()))
-            tactel = depth.reshape(near.size, -1).sum(axis=1) * scale
-            force[near] = np.maximum(force[near], tactel)
-        return self.spread(force.reshape(shape)), deepest
+        return self._raw.reshape(shape).copy(), self._force.reshape(shape).copy(), float(deepest)
 
     def contact(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, np.ndarray]:
         """Contact wrench on the pad and its stiffness, for a compliant mount.
@@ -234,23 +258,16 @@ class SensorModel:
             ``−d wrench / d ξ`` for a spatial displacement twist ξ of the pad:
             ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
         """
-        n = T_gs[:3, 2]
-        N = skew(n)
-        wrench = np.zeros(6)
-        K = np.zeros((6, 6))
-        for _, points, depth, k in self._penetration(T_gs, objects):
-            touching = depth > 0.0
-            p, d = points[touching], depth[touching]
-            # Σ over the springs, with a = [n; p × n] = [n; −N p] (N = [n]×):
-            #   wrench = −k Σ d a,   K_x = k Σ a aᵀ,
-            # written with the sums Σd, Σd·p, Σp and Σp·pᵀ.
-            wrench -= k * np.concatenate((d.sum() * n, -N @ (d @ p)))
-            pxn = -N @ p.sum(axis=0)
-            K[:3, :3] += (k * len(d)) * np.outer(n, n)
-            K[:3, 3:] += k * np.outer(n, pxn)
-            K[3:, :3] += k * np.outer(pxn, n)
-            K[3:, 3:] += k * (N @ (p.T @ p) @ N.T)
-        return wrench, K
+        self._prepare(T_gs, objects)
+        self._run(kernels.MODE_CONTACT)
+        return self._wK[:6].copy(), self._wK[6:].reshape(6, 6).copy()
+
+    def arm_step(self, objects, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
+        """The compliant arm's step against the pad's contact with ``objects``, compiled
+        (:func:`tactile_bt.robot.kernels.arm_step`: the packed model, state and output arrays;
+        returns its status)."""
+        self._prepare(None, objects)
+        return int(self._run(kernels.MODE_ARM, 0.0, kin, arm, io, out))
 
     def spread(self, force: np.ndarray) -> np.ndarray:
         """Foam spread: a separable Gaussian of ``foam_spread`` tactels, truncated at 2.5 σ.
@@ -264,13 +281,36 @@ class SensorModel:
 
     def raw_frame(self, force: np.ndarray) -> np.ndarray:
         """Raw 12-bit counts (uint16) of a tactel force image, with noise and saturation."""
-        p = self.params
-        offset = self.calibration.offset
-        signal = self.calibration.raw_from_force(force) - offset
-        gain = 1.0 + p.noise_common * self.rng.standard_normal()
-        sigma = p.noise_counts + p.noise_relative * signal
-        noisy = offset + gain * signal + sigma * self.rng.standard_normal(signal.shape)
-        np.rint(noisy, out=noisy)
-        np.maximum(noisy, 0.0, out=noisy)
-        np.minimum(noisy, defaults.ADC_MAX, out=noisy)
-        return noisy.astype(np.uint16)
+        f = np.asarray(force, dtype=float)
+        if f.shape != self.pad.shape:
+            f = np.broadcast_to(f, self.pad.shape)
+        self._prepare_calibration()
+        self._force[:] = f.ravel()
+        gain = self._draw()
+        self._run(kernels.MODE_RAW, gain)
+        return self._raw.reshape(self.pad.shape).copy()
+
+
+class PadContact:
+    """The contact of a world's pad with its objects, for a compliant mount.
+
+    Called with a pose it returns ``(wrench_g, K_x)`` (:meth:`SensorModel.contact`), like any
+    contact model of :mod:`tactile_bt.robot.equilibrium`; :meth:`arm_step` lets
+    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in the compiled kernel.
+
+    Parameters
+    ----------
+    sensor : SensorModel
+    world : object with an ``objects`` list (read at every call: scene events replace objects)
+    """
+
+    def __init__(self, sensor: SensorModel, world) -> None:
+        self.sensor = sensor
+        self.world = world
+
+    def __call__(self, T_gs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.sensor.contact(T_gs, self.world.objects)
+
+    def arm_step(self, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
+        """See :meth:`SensorModel.arm_step`."""
+        return self.sensor.arm_step(self.world.objects, kin, arm, io, out)

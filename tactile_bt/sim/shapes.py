@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tactile_bt.sim import kernels
 from tactile_bt.sim.objects import SimObject
 
 __all__ = ["Box", "Sphere", "Cylinder"]
@@ -62,6 +63,9 @@ class Box(SimObject):
     def local_bounds(self) -> np.ndarray:
         return np.array([-self._half, self._half])
 
+    def kernel_shape(self) -> tuple[int, list, None]:
+        return kernels.SHAPE_BOX, list(self._half), None
+
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         q = np.abs(points) - self._half
         outside = np.maximum(q, 0.0)
@@ -89,6 +93,9 @@ class Sphere(SimObject):
     def local_bounds(self) -> np.ndarray:
         r = self.radius
         return np.array([[-r, -r, -r], [r, r, r]])
+
+    def kernel_shape(self) -> tuple[int, list, None]:
+        return kernels.SHAPE_SPHERE, [self.radius], None
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         return np.sqrt(np.einsum("ij,ij->i", points, points)) - self.radius
@@ -118,6 +125,9 @@ class Cylinder(SimObject):
     def local_bounds(self) -> np.ndarray:
         r, h = self.radius, self.length / 2
         return np.array([[-h, -r, -r], [h, r, r]])
+
+    def kernel_shape(self) -> tuple[int, list, None]:
+        return kernels.SHAPE_CYLINDER, [self.radius, self.length / 2], None
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         radial = np.hypot(points[:, 1], points[:, 2]) - self.radius

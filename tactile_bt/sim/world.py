@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from tactile_bt.robot.mounts import CartesianMount
-from tactile_bt.sim.pad import SensorModel
+from tactile_bt.sim.pad import PadContact, SensorModel
 
 __all__ = ["CartesianMount", "World"]
 
@@ -30,8 +30,9 @@ class World:
         self.mount = mount
         self.last_force = np.zeros(sensor.params.geometry.shape)
         self.last_penetration = 0.0
-        # A compliant mount feels the contact: wrench and stiffness from the pad model.
-        mount.attach(lambda T: sensor.contact(T, self.objects))
+        # A compliant mount feels the contact: wrench and stiffness from the pad model (and, for
+        # the arm, its whole step compiled with it).
+        mount.attach(PadContact(sensor, self))
 
     @property
     def pose(self) -> np.ndarray:
@@ -45,8 +46,8 @@ class World:
 
     def sense(self) -> np.ndarray:
         """A raw frame (uint16 counts) for the pad's current pose."""
-        self.last_force, self.last_penetration = self.sensor.force_image(self.pose, self.objects)
-        return self.sensor.raw_frame(self.last_force)
+        raw, self.last_force, self.last_penetration = self.sensor.sense(self.pose, self.objects)
+        return raw
 
     def move(self, twist_g: np.ndarray, dt: float) -> None:
         """Move the pad by the base-frame twist for ``dt`` seconds."""
