@@ -4,6 +4,7 @@ that keeps the pad's border off the table, the frontier planner and the mission'
 on scripted poses and frames (tactile_bt.testing)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import py_trees
@@ -13,6 +14,7 @@ from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import make_pose
+from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.mission.loop import root_outcome, success_reason
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.testing import LeafHarness, contact_frame, make_features
@@ -21,6 +23,7 @@ from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, Front
 from tactile_bt.tree.behaviours.frontier import FrontierMap
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 
+REPO = Path(__file__).resolve().parents[1]
 DT = 1.0 / 250.0
 DOWN = Rotation.from_euler("x", 180, degrees=True)  # pad facing down: x_s = x_g, y_s = -y_g
 PAD = PadGeometry()  # 16 x 16 tactels at 5 mm: 80 mm square
@@ -93,8 +96,24 @@ def test_table_clearance_without_a_known_table_never_fails(value):
 def test_a_table_height_that_is_not_a_number_is_an_error():
     h = LeafHarness(TableClearance(), pose=pose(DOWN, (0.0, 0.0, 0.05)))
     h.set(TABLE_Z_KEY, "high")
-    with pytest.raises(ValueError, match="table height"):
+    with pytest.raises(BlackboardReferenceError, match="table's height"):
         h.tick()
+
+
+@pytest.mark.parametrize("value", ["abc", "inf", "true", "[0, 1]"])
+def test_a_bad_table_height_on_the_command_line_is_one_error_line_before_the_run(tmp_path, value):
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "tactile_bt.cli", "run", "trees/scan_object.yaml", "--scene",
+                          "sim/object.yaml", "--blackboard", f"/setup/table_z_m={value}", "--out", str(out)],
+                         capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert run.returncode != 0
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "/setup/table_z_m" in lines[0]
+    assert "Traceback" not in run.stderr
+    assert not (out / "report.json").exists()  # nothing ran
 
 
 # ------------------------------------------------------------------ no table contacts recorded
@@ -422,21 +441,22 @@ def _storage(key):
 def test_the_mission_writes_the_table_height_of_the_set_up(tmp_path):
     from tactile_bt import run_mission
 
-    run_mission("trees/force_hold.yaml", "sim/pen.yaml", duration=0.02, overrides=["objects.1.height=0.004"])
+    run_mission(str(REPO / "trees/force_hold.yaml"), str(REPO / "sim/pen.yaml"), duration=0.02,
+                overrides=["objects.1.height=0.004"])
     assert _storage(TABLE_Z_KEY) == pytest.approx(0.004)
     # a scene without a table: NaN, the guards are off
     scene = tmp_path / "no_table.yaml"
     scene.write_text("name: no_table\nmount: {type: cartesian, position: [0, 0, 0.123], rpy_deg: [180, 0, 0]}\n"
                      "objects:\n  - {type: sphere, radius: 0.06, position: [0, 0, 0.06], stiffness: 1.0e3}\n")
-    run_mission("trees/force_hold.yaml", str(scene), duration=0.02)
+    run_mission(str(REPO / "trees/force_hold.yaml"), str(scene), duration=0.02)
     assert math.isnan(_storage(TABLE_Z_KEY))
 
 
 def test_a_calibrated_table_height_from_the_command_line_wins_over_the_scene():
     from tactile_bt import load_tree, run_mission
 
-    tree = load_tree("trees/scan_object.yaml", blackboard=[f"{TABLE_Z_KEY}=0.012"])
-    run_mission(tree, "sim/scan_box.yaml", duration=0.02)
+    tree = load_tree(str(REPO / "trees/scan_object.yaml"), blackboard=[f"{TABLE_Z_KEY}=0.012"])
+    run_mission(tree, str(REPO / "sim/scan_box.yaml"), duration=0.02)
     assert _storage(TABLE_Z_KEY) == pytest.approx(0.012)
 
 

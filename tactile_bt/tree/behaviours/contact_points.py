@@ -196,6 +196,7 @@ class RecordContacts(TactileBehaviour):
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
         self.contacts = self.bb.contacts
+        table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
 
     def initialise(self) -> None:
         self._last = None

@@ -342,6 +342,7 @@ class FrontierGuidance(TactileBehaviour):
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
         self._cloud = self.bb.contacts
+        table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
 
     # Formatted only when somebody reads it (not every cycle).
     @property

@@ -89,6 +89,10 @@ class TableOffset(TactileBehaviour):
         self._goal = np.zeros(2)
         write(self.key, (0.0, 0.0))
 
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
+
     def initialise(self) -> None:
         self.table_z_m = table_height(self._setup, self.table_key)
         write(self.key, tuple(self.target))

@@ -21,6 +21,7 @@ import math
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
@@ -51,16 +52,19 @@ def pad_clearance(pose: np.ndarray, pad: PadGeometry, table_z_m: float, margin_m
 
 def table_height(client, key: str = TABLE_Z_KEY) -> float:
     """The table height on the blackboard through ``client`` (which registered ``key`` for
-    reading), NaN when absent; ValueError for a value that is not a number."""
+    reading), NaN when absent. A value that is not a finite number (or NaN) is a
+    :class:`~tactile_bt.errors.BlackboardReferenceError`: the leaves reading it check it when
+    the tree is set up, before the mission runs."""
     if not client.exists(key):
         return math.nan
     value = client.get(key)
     try:
         z = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"blackboard key {key!r} must hold the table height in m, got {value!r}") from None
-    if math.isinf(z):
-        raise ValueError(f"blackboard key {key!r} must hold a finite table height (or NaN: no table), got {z}")
+        z = None
+    if z is None or isinstance(value, bool) or math.isinf(z):
+        raise BlackboardReferenceError(f"blackboard key {key!r} (the table's height, from the scene or "
+                                       f"--blackboard) must be a number in m (or .nan: no table), got {value!r}")
     return z
 
 
@@ -104,6 +108,10 @@ class TableClearance(TactileBehaviour):
         if name == "margin_m" and not value >= 0:
             raise ValueError(f"{self.name}: margin_m must not be negative, got {value}")
         super().set_parameter(name, float(value) if name in ("min_clearance_m", "margin_m") else value)
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
 
     def initialise(self) -> None:
         self.table_z_m = table_height(self._setup, self.table_key)
