@@ -60,6 +60,8 @@ Layer: robot.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from tactile_bt.robot.equilibrium import (
@@ -254,7 +256,7 @@ class CompliantArm(EquilibriumSolverMixin):
         compiled = self._compiled_contact(wrench_fn, wrench_g)
         if compiled is not None:
             V = np.asarray(twist_g, dtype=float)
-            if V.shape != (6,) or not np.all(np.isfinite(V)):
+            if V.shape != (6,) or not math.isfinite(float(V @ V)):
                 raise ValueError(f"twist_g must be 6 finite numbers, got {twist_g!r}")
             _check_dt(dt)
             if self._compiled_step(compiled, dt, twist=V):
@@ -373,44 +375,49 @@ class CompliantArm(EquilibriumSolverMixin):
         if key != self._arm_key:
             self._arm_packed = kernels.pack_arm(self.K, self.D, self.redundancy)
             self._arm_key = key
-        io, out = self._io, self._out
-        io[kernels.I_QEQ:kernels.I_QEQ + 7] = self.q_eq
-        io[kernels.I_Q:kernels.I_Q + 7] = self.q
+        io, out, K = self._io, self._out, kernels
+        io[K.I_QEQ:K.I_QEQ + 7] = self.q_eq
+        io[K.I_Q:K.I_Q + 7] = self.q
         mode = 0.0
         if twist is not None:
-            io[kernels.I_TWIST:kernels.I_TWIST + 6] = twist
+            io[K.I_TWIST:K.I_TWIST + 6] = twist
             mode = 2.0
         elif q_dot is not None:
-            io[kernels.I_QDCMD:kernels.I_QDCMD + 7] = q_dot
+            io[K.I_QDCMD:K.I_QDCMD + 7] = q_dot
             mode = 1.0
-        io[kernels.I_DT:] = (dt, mode, self.ik_damping, self.sigma_threshold, self.max_step_m, self.tol,
-                             self.max_iter, self.pad_radius)
+        io[K.I_DT] = dt
+        io[K.I_MODE] = mode
+        io[K.I_DAMP] = self.ik_damping
+        io[K.I_EPS] = self.sigma_threshold
+        io[K.I_STEP] = self.max_step_m
+        io[K.I_TOL] = self.tol
+        io[K.I_ITER] = self.max_iter
+        io[K.I_RADIUS] = self.pad_radius
         status = contact.arm_step(self.kin.packed, self._arm_packed, io, out)
-        if status == kernels.STATUS_RATES:
+        if status == K.STATUS_RATES:
             return False
         if mode == 2.0:
-            self.last_rate = RateSolution(out[kernels.O_QD:kernels.O_QD + 7].copy(), float(out[kernels.O_LAM]),
-                                          float(out[kernels.O_SMIN]), np.zeros(7, dtype=bool),
-                                          float(out[kernels.O_SCALE]),
-                                          out[kernels.O_RRES:kernels.O_RRES + 6].copy())
+            self.last_rate = RateSolution(out[K.O_QD:K.O_QD + 7].copy(), float(out[K.O_LAM]), float(out[K.O_SMIN]),
+                                          np.zeros(7, dtype=bool), float(out[K.O_SCALE]),
+                                          out[K.O_RRES:K.O_RRES + 6].copy())
         q_prev = self.q
-        self.q_eq = io[kernels.I_QEQ:kernels.I_QEQ + 7].copy()
-        if status == kernels.STATUS_NONFINITE:
+        self.q_eq = io[K.I_QEQ:K.I_QEQ + 7].copy()
+        if status == K.STATUS_NONFINITE:
             raise FloatingPointError(f"the contact model returned a non-finite wrench near T_gs=\n{self._T}")
-        if status == kernels.STATUS_NEWTON:
+        if status == K.STATUS_NEWTON:
             res = self._solve(WrenchSource(contact, None), self.q_eq, q_prev, self.D / dt, q_prev, self.tol,
                               self.max_iter)
             self._accept(res)
             self.q_dot = (self.q - q_prev) / dt
             return True
-        q = io[kernels.I_Q:kernels.I_Q + 7].copy()
-        T = out[kernels.O_T:kernels.O_T + 16].reshape(4, 4).copy()
-        J = out[kernels.O_J:kernels.O_J + 42].reshape(6, 7).copy()
-        res = SettleResult(q, T, out[kernels.O_W:kernels.O_W + 6].copy(), float(out[kernels.O_RES]),
-                           int(out[kernels.O_IT]), int(out[kernels.O_EVAL]), bool(out[kernels.O_CONV]))
-        self._accept(res)
-        self._kin_cache = (q.copy(), T, J)
-        self.q_dot = io[kernels.I_QDOT:kernels.I_QDOT + 7].copy()
+        state = io[K.I_Q:K.I_QDOT + 7].copy()  # q, then q_dot
+        q = state[:7]
+        T = out[K.O_T:K.O_T + 16].reshape(4, 4)
+        res = SettleResult(q, T.copy(), out[K.O_W:K.O_W + 6].copy(), float(out[K.O_RES]), int(out[K.O_IT]),
+                           int(out[K.O_EVAL]), bool(out[K.O_CONV]))
+        self.q, self._T, self.wrench_g, self.last_solve = q, T.copy(), res.wrench_g, res
+        self._kin_cache = (q.copy(), self._T, out[K.O_J:K.O_J + 42].reshape(6, 7).copy())
+        self.q_dot = state[7:]
         return True
 
     def _accept(self, res: SettleResult) -> None:

@@ -148,6 +148,7 @@ class SensorModel:
         self._raw = np.zeros(n, dtype=np.uint16)
         self._wK = np.zeros(42)
         self._T = np.eye(4)
+        self._args = None
         self._cal_of = None
         self._cal = np.zeros((3, n))
         self._packed: tuple = ()
@@ -174,8 +175,8 @@ class SensorModel:
     def _prepare(self, T_gs, objects) -> None:
         """The pose and the objects as the kernel reads them (objects repacked when the list
         holds other objects than last time, which also redoes the broad phase)."""
-        packed = self._packed
-        if len(packed) != len(objects) or any(a is not b for a, b in zip(packed, objects)):
+        objects = tuple(objects)
+        if objects != self._packed:  # objects compare by identity
             self._objf, self._grids = kernels.pack_objects(objects, self.params.foam_stiffness, self.tactel_area,
                                                            len(self._offsets))
             if not objects:
@@ -184,27 +185,31 @@ class SensorModel:
             self._nnear = np.zeros(max(len(objects), 1), dtype=np.int64)
             self._broad[0] = 0.0
             self._last[0] = 0.0
-            self._packed = tuple(objects)
-        self._prepare_calibration()
-        if T_gs is not None:
-            T = np.asarray(T_gs, dtype=float)
-            if T.shape != (4, 4):
-                raise ValueError(f"T_gs must be a 4x4 pose, got shape {T.shape}")
-            self._T[...] = T
-
-    def _prepare_calibration(self) -> None:
-        cal = self.calibration
-        if cal is not self._cal_of:
+            self._packed = objects
+            self._args = None
+        if self.calibration is not self._cal_of:
+            cal = self.calibration
             self._cal = np.ascontiguousarray(np.stack([np.broadcast_to(np.asarray(a, float), self.pad.shape).ravel()
                                                        for a in (cal.offset, cal.span, cal.force_scale)]))
             self._cal_of = cal
+            self._args = None
+        if self._args is None:
+            self._args = (self._centres, self._offsets, self._corners, self._padf, self._objf, self._grids, self._near,
+                          self._nnear, self._broad, self._job, self._last, self._last_force, self._Gr, self._Gc,
+                          self.pad.rows, self._cal, self._z)
+        if T_gs is not None:
+            T = T_gs
+            if not (type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4) and T.flags.c_contiguous):
+                T = np.ascontiguousarray(T_gs, dtype=float)
+                if T.shape != (4, 4):
+                    raise ValueError(f"T_gs must be a 4x4 pose, got shape {T.shape}")
+            self._T = T
 
     def _run(self, mode: int, gain: float = 0.0, kin=None, arm=None, io=None, out=None) -> float:
+        """The compiled entry point (:func:`tactile_bt.sim.kernels.pad_kernel`), always with
+        arguments of the same types (one compiled version)."""
         dummy = self._wK
-        return kernels.pad_kernel(mode, self._T, self._centres, self._offsets, self._corners, self._padf, self._objf,
-                                  self._grids, self._near, self._nnear, self._broad, self._job, self._last, self._last_force,
-                                  self._Gr, self._Gc,
-                                  self.pad.rows, self._cal, self._z, gain, self._force, self._wK, self._raw,
+        return kernels.pad_kernel(mode, self._T, *self._args, gain, self._force, self._wK, self._raw,
                                   dummy if kin is None else kin, dummy if arm is None else arm,
                                   dummy if io is None else io, dummy if out is None else out)
 
@@ -284,7 +289,7 @@ class SensorModel:
         f = np.asarray(force, dtype=float)
         if f.shape != self.pad.shape:
             f = np.broadcast_to(f, self.pad.shape)
-        self._prepare_calibration()
+        self._prepare(None, self._packed)
         self._force[:] = f.ravel()
         gain = self._draw()
         self._run(kernels.MODE_RAW, gain)
