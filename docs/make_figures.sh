@@ -19,7 +19,13 @@ for sc in box cylinder ellipsoid; do
   tactile-bt run trees/surface_scan_stripes.yaml --scene "sim/scan_$sc.yaml" --out "out/scan_$sc" | tee "out/scan_$sc.txt"
   tactile-bt view "out/scan_$sc" --png "docs/figures/scan_$sc.png"
 done
-tactile-bt run trees/surface_scan.yaml --scene sim/object.yaml --out out/scan_object | tee out/scan_object.txt
+for sc in object scan_stone scan_box_turned scan_log scan_box scan_cylinder scan_ellipsoid; do
+  tactile-bt run trees/scan_object.yaml --scene "sim/$sc.yaml" --out "out/scan_object/$sc" | tee "out/scan_object_$sc.txt"
+done
+for sc in object stone box_turned log; do
+  d="out/scan_object/$sc"; [ -d "$d" ] || d="out/scan_object/scan_$sc"
+  tactile-bt view "$d" --png "docs/figures/scan_object_$sc.png"
+done
 tactile-bt bench | tee out/bench.txt
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --record out/cable.tbr --out out/cable_recorded > /dev/null
 tactile-bt replay out/cable.tbr --tree trees/cable_follow.yaml | tee out/replay.txt
