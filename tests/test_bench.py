@@ -4,7 +4,10 @@ import json
 
 import pytest
 
-from tactile_bt.experiments.bench import bench_control_cycle, bench_features, bench_mission, format_bench
+import sys
+
+from tactile_bt.experiments.bench import (bench_control_cycle, bench_features, bench_first_run, bench_mission,
+                                          bench_scan, format_bench)
 
 
 def test_bench_figures_are_ratios_measured_in_one_run():
@@ -13,18 +16,23 @@ def test_bench_figures_are_ratios_measured_in_one_run():
         "control_cycle": bench_control_cycle(repeats=1, number=5),
         "cable_mission": bench_mission(duration=0.5),
         "cable_mission_ideal_mount": bench_mission(duration=0.5, ideal=True),
+        "stripe_scan": bench_scan(duration=0.5, stage_seconds=0.2),
     }
     f = figures["features"]
     assert f["speedup_vs_regionprops"] == pytest.approx(f["regionprops_baseline_us"] / f["extract_moments_us"])
     c = figures["control_cycle"]
     assert c["share_of_frame_period"] == pytest.approx(c["control_cycle_us"] / c["frame_period_1900hz_us"])
-    for key, mount in (("cable_mission", "lwr4"), ("cable_mission_ideal_mount", "cartesian")):
+    for key, mount in (("cable_mission", "lwr4"), ("cable_mission_ideal_mount", "cartesian"), ("stripe_scan", "lwr4")):
         m = figures[key]
         assert m["mount"] == mount
         assert m["sim_time_s"] == 0.5 and m["real_time_factor"] > 0
         assert set(m["per_cycle_us"]) >= {"simulated_sensor", "control_loop", "mount_move"}
+        for stage, us in m["per_cycle_us"].items():  # each stage also as a share of the 4 ms cycle
+            assert m["share_of_cycle_period"][stage] == pytest.approx(us / m["cycle_period_us"])
+    assert figures["stripe_scan"]["target_real_time_factor"] == 15.0
     json.dumps(figures)  # what `bench --json` prints
-    assert "real time" in format_bench(figures)
+    text = format_bench(figures)
+    assert "real time" in text and "stripe scan" in text
 
 
 def test_bench_reports_sweep_throughput_with_one_and_two_workers_as_a_ratio():
@@ -36,6 +44,23 @@ def test_bench_reports_sweep_throughput_with_one_and_two_workers_as_a_ratio():
         assert w["speedup"] == pytest.approx(w["runs_per_s_n_workers"] / w["runs_per_s_1_worker"])
     line = format_bench({**_MINIMAL, "sweep": w}).splitlines()[-1]
     assert line.startswith("sweep throughput") and "runs/s with 1 worker" in line
+
+
+def test_first_run_times_a_fresh_process_with_an_empty_then_a_filled_cache(tmp_path):
+    """The cold/warm figure, with a stand-in command (the real one compiles for many seconds)."""
+    marker = tmp_path / "runs"
+    script = ("import os, pathlib; d = pathlib.Path(os.environ['NUMBA_CACHE_DIR']); "
+              f"p = pathlib.Path({str(marker)!r}); p.write_text(p.read_text() + d.name + ' ' + "
+              "str(sorted(x.name for x in d.iterdir())) + chr(10) if p.exists() else d.name + ' []' + chr(10)); "
+              "(d / 'filled').write_text('x')")
+    r = bench_first_run(command=[sys.executable, "-c", script])
+    first, second = marker.read_text().splitlines()
+    assert first.split()[0] == second.split()[0]  # the same cache directory ...
+    assert first.endswith("[]") and "filled" in second  # ... empty the first time, filled the second
+    assert r["cold_over_warm"] == pytest.approx(r["cold_cache_s"] / r["warm_cache_s"])
+    line = format_bench({**_MINIMAL, "first_run": {**r, "mission_s": 20.0, "cold_real_time_factor": 1.0,
+                                                   "warm_real_time_factor": 2.0}})
+    assert "first run" in line and "empty kernel cache" in line
 
 
 #: The figures format_bench needs, as bench --quick gives them (values do not matter here).

@@ -4,7 +4,12 @@
   ``label`` + ``regionprops`` implementation of the same features, on the same frames;
 * one control cycle (calibration, features, smoothing, tree tick, summed twist) against the
   526 µs frame period of the sensor at 1.9 kHz;
-* the closed-loop cable mission against real time at 250 Hz, with where the time goes;
+* the closed-loop cable mission (on the compliant arm and on the ideal mount) and the stripe
+  scan of the ellipsoid against real time at 250 Hz, with where the time goes per cycle (each
+  stage also as its share of the 4 ms cycle);
+* the README's main command (``tactile-bt run`` of the cable mission) in a fresh process, first
+  with an empty cache of compiled kernels (``NUMBA_CACHE_DIR`` a new directory: what a fresh
+  install pays once) and then with the cache filled, against the mission time;
 * sweep throughput: runs per second of a small ``tactile-bt sweep`` in this process and on a
   local Dask cluster of 2 worker processes, and their ratio.
 
@@ -15,6 +20,11 @@ Layer: experiments.
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -22,11 +32,14 @@ import numpy as np
 
 from tactile_bt import defaults
 
-__all__ = ["run_bench", "format_bench", "bench_reconstruction", "bench_sweep"]
+__all__ = ["run_bench", "format_bench", "bench_reconstruction", "bench_sweep", "bench_mission", "bench_scan",
+           "bench_first_run"]
 
 ROOT = Path(__file__).resolve().parents[2]
 TREE = ROOT / "trees" / "cable_follow.yaml"
 SCENE = ROOT / "sim" / "cable.yaml"
+SCAN_TREE = ROOT / "trees" / "surface_scan_stripes.yaml"
+SCAN_SCENE = ROOT / "sim" / "scan_ellipsoid.yaml"
 #: The cable scene with the pad on the ideal Cartesian mount instead of the compliant arm.
 IDEAL = ["mount.type=cartesian"]
 
@@ -129,47 +142,118 @@ def _cable_tree(ideal: bool):
     return load_tree(TREE, text=text)
 
 
-def bench_mission(duration: float = 20.0, ideal: bool = False) -> dict:
-    """Closed-loop cable mission on the arm (or the ideal mount); where the time goes."""
-    from tactile_bt.mission.loop import ControlLoop
-    from tactile_bt.mission.run import run_mission
-    from tactile_bt.sim.scene import load_scene
+def _stages(tree, scene_path, overrides, seconds: float) -> dict:
+    """Where the time of a mission goes, per cycle: the same loop as the mission's, timed per
+    stage (µs), and each stage's share of the cycle period (the mission time it simulates)."""
     from tactile_bt.control.spatial import body_to_spatial
+    from tactile_bt.mission.loop import ControlLoop
+    from tactile_bt.sim.scene import load_scene
 
-    overrides = IDEAL if ideal else None
-    result = run_mission(_cable_tree(ideal), SCENE, duration=duration, seed=0, overrides=overrides)
-    # Where the time goes: the same loop, timed per stage.
-    scene = load_scene(SCENE, overrides)
+    scene = load_scene(scene_path, overrides)
     world = scene.build_world(np.random.default_rng(0))
-    loop = ControlLoop(_cable_tree(ideal), world.calibration, 1.0 / scene.rate_hz, profile=True,
-                       pad=scene.sensor.geometry)
+    loop = ControlLoop(tree, world.calibration, 1.0 / scene.rate_hz, profile=True, pad=scene.sensor.geometry)
     stages = np.zeros(3)
-    n = int(min(duration, 10.0) * scene.rate_hz)
+    n = max(1, int(seconds * scene.rate_hz))
     for k in range(n):
+        t = k / scene.rate_hz
         t0 = time.perf_counter()
+        world.update(t)
         raw = world.sense()
         t1 = time.perf_counter()
         pose = world.pose
-        twist = loop.cycle(raw, pose, k / scene.rate_hz)
+        twist = loop.cycle(raw, pose, t)
         t2 = time.perf_counter()
         world.move(body_to_spatial(pose, twist), 1.0 / scene.rate_hz)
         stages += (t1 - t0, t2 - t1, time.perf_counter() - t2)
     stages = stages / n * 1e6
-    perception, tick = (np.array(loop.stage_times) / loop.stage_cycles * 1e6).tolist()
+    perception, tick = (np.array(loop.stage_times) / max(loop.stage_cycles, 1) * 1e6).tolist()
+    per_cycle = {
+        "simulated_sensor": stages[0],
+        "control_loop": stages[1],
+        "of_which_perception": perception,
+        "of_which_tree_tick_and_controller": tick,
+        "mount_move": stages[2],
+    }
+    period_us = 1e6 / scene.rate_hz
+    return {"mount": scene.mount.type, "cycle_period_us": period_us, "per_cycle_us": per_cycle,
+            "share_of_cycle_period": {k: v / period_us for k, v in per_cycle.items()}}
+
+
+def bench_mission(duration: float = 20.0, ideal: bool = False, stage_seconds: float = 10.0) -> dict:
+    """Closed-loop cable mission on the arm (or the ideal mount) against real time; where the
+    time goes (over the first ``stage_seconds`` of mission time)."""
+    from tactile_bt.mission.run import run_mission
+
+    overrides = IDEAL if ideal else None
+    result = run_mission(_cable_tree(ideal), SCENE, duration=duration, seed=0, overrides=overrides)
     return {
-        "mount": scene.mount.type,
         "status": result.summary.status,
         "real_time_factor": result.summary.real_time_factor,
         "sim_time_s": result.summary.sim_time_s,
         "wall_time_s": result.summary.wall_time_s,
         "target_real_time_factor": 25.0,
-        "per_cycle_us": {
-            "simulated_sensor": stages[0],
-            "control_loop": stages[1],
-            "of_which_perception": perception,
-            "of_which_tree_tick_and_controller": tick,
-            "mount_move": stages[2],
-        },
+        **_stages(_cable_tree(ideal), SCENE, overrides, min(duration, stage_seconds)),
+    }
+
+
+def bench_scan(duration: float = 240.0, stage_seconds: float = 5.0) -> dict:
+    """The stripe scan of the ellipsoid (``trees/surface_scan_stripes.yaml`` on
+    ``sim/scan_ellipsoid.yaml``, on the compliant arm) against real time, for ``duration`` s of
+    mission time (240 s: the scene's budget), and where the time goes."""
+    from tactile_bt.mission.run import run_mission
+    from tactile_bt.tree.loader import load_tree
+
+    result = run_mission(SCAN_TREE, SCAN_SCENE, duration=duration, seed=0, reconstruct="none")
+    return {
+        "status": result.summary.status,
+        "real_time_factor": result.summary.real_time_factor,
+        "sim_time_s": result.summary.sim_time_s,
+        "wall_time_s": result.summary.wall_time_s,
+        "target_real_time_factor": 15.0,
+        **_stages(load_tree(SCAN_TREE), SCAN_SCENE, None, min(duration, stage_seconds)),
+    }
+
+
+def _timed_run(command: list[str], env: dict, out: str) -> tuple[float, float]:
+    """Wall time (s) of a ``tactile-bt run`` in a fresh process, and its mission time (s)."""
+    started = time.perf_counter()
+    done = subprocess.run(command, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - started
+    if done.returncode != 0:
+        raise RuntimeError(f"bench: {' '.join(command)} failed: {done.stderr.strip()[-500:]}")
+    report = Path(out) / "report.json"
+    sim = float(json.loads(report.read_text())["sim_time_s"]) if report.is_file() else float("nan")
+    return wall, sim
+
+
+def bench_first_run(duration: float | None = None, command: list[str] | None = None) -> dict:
+    """The README's main command (the cable mission, ``tactile-bt run ... --out DIR``) in a fresh
+    Python process: first with an empty cache of compiled kernels (``NUMBA_CACHE_DIR`` a new
+    directory, as after a fresh install: the kernels are compiled), then again with that cache
+    filled (they are loaded).  ``duration`` shortens the mission (default: the scene's, the
+    README's); ``command`` replaces the command (for tests).
+
+    Returns the wall times (s, process start to exit), the mission time, and the ratios: cold
+    over warm, and mission time over each (the real-time factor including start-up).
+    """
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
+        cmd = command or [sys.executable, "-m", "tactile_bt.cli", "run", str(TREE), "--scene", str(SCENE),
+                          "--out", out]
+        if duration is not None and command is None:
+            cmd += ["--duration", f"{duration:g}"]
+        path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=path)
+        cold, sim = _timed_run(cmd, env, out)
+        warm, _ = _timed_run(cmd, env, out)
+    return {
+        "command": "tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --out DIR"
+                   + (f" --duration {duration:g}" if duration is not None else ""),
+        "mission_s": sim,
+        "cold_cache_s": cold,
+        "warm_cache_s": warm,
+        "cold_over_warm": cold / warm,
+        "cold_real_time_factor": sim / cold,
+        "warm_real_time_factor": sim / warm,
     }
 
 
@@ -272,13 +356,16 @@ def bench_sweep(runs: int = 8, duration: float = 2.0, workers: int = 2, repeats:
 
 
 def run_bench(quick: bool = False) -> dict:
-    """All speed figures; ``quick`` uses fewer repetitions and a shorter mission."""
+    """All speed figures; ``quick`` uses fewer repetitions and shorter missions (the cable
+    mission 5 s, the scan 30 s of its 240 s, the first runs 5 s)."""
     repeats = 3 if quick else 7
     return {
         "features": bench_features(repeats, 100 if quick else 300),
         "control_cycle": bench_control_cycle(repeats, 200 if quick else 1000),
         "cable_mission": bench_mission(5.0 if quick else 20.0),
         "cable_mission_ideal_mount": bench_mission(5.0 if quick else 20.0, ideal=True),
+        "stripe_scan": bench_scan(30.0 if quick else 240.0),
+        "first_run": bench_first_run(5.0 if quick else None),
         "mesh_scene": bench_mesh_scene(),
         "reconstruction": bench_reconstruction(n=20000, repeats=1 if quick else 3),
         "sweep": bench_sweep(runs=4 if quick else 8, repeats=1 if quick else 2),
@@ -293,11 +380,22 @@ def format_bench(figures: dict) -> str:
         f"                    Hough orientation {f['extract_hough_us']:.1f} µs",
         f"control cycle       {c['control_cycle_us']:7.1f} µs  = {c['share_of_frame_period']:.0%} of the 1.9 kHz frame period",
     ]
-    for key in ("cable_mission", "cable_mission_ideal_mount"):
+    for key, label in (("cable_mission", "cable mission"), ("cable_mission_ideal_mount", "cable mission"),
+                       ("stripe_scan", "stripe scan  ")):
+        if key not in figures:
+            continue
         m = figures[key]
-        lines.append(f"cable mission ({m['mount']:9s}) {m['real_time_factor']:5.1f}x real time at 250 Hz "
+        lines.append(f"{label} ({m['mount']:9s}) {m['real_time_factor']:5.1f}x real time at 250 Hz "
                      f"(target ≥ {m['target_real_time_factor']:.0f}x)")
-        lines.append("  per cycle: " + ", ".join(f"{k} {v:.0f} µs" for k, v in m["per_cycle_us"].items()))
+        shares = m.get("share_of_cycle_period", {})
+        lines.append("  per cycle: " + ", ".join(
+            f"{k} {v:.0f} µs" + (f" ({shares[k]:.1%})" if k in shares else "") for k, v in m["per_cycle_us"].items()))
+    if "first_run" in figures:
+        r = figures["first_run"]
+        lines.append(f"first run           {r['cold_cache_s']:.1f} s with an empty kernel cache, {r['warm_cache_s']:.1f} s "
+                     f"cached ({r['cold_over_warm']:.1f}x), for {r['mission_s']:.1f} s of mission: "
+                     f"{r['cold_real_time_factor']:.1f}x and {r['warm_real_time_factor']:.1f}x real time")
+        lines.append(f"  ({r['command']})")
     if "reconstruction" in figures:
         r = figures["reconstruction"]
         times = ", ".join(f"{k[:-2]} {v:.2f} s" for k, v in r.items() if k.endswith("_s") and k != "target_s")
