@@ -463,7 +463,7 @@ def lu_solve(H, b, x):
     return True
 
 
-@njit(**OPTS)
+@njit(**INLINE)
 def arm_work():
     """The work arrays of :func:`arm_begin` / :func:`arm_next`: the current iterate ``(q, T, J,
     w, K_x, r)``, the trial point ``(q_t, T_t, J_t, w_t, K_xt, r_t)`` (a contact model fills
@@ -475,7 +475,7 @@ def arm_work():
             np.empty((n, n)), np.zeros(n), np.empty(n), np.empty(n), np.zeros(5))
 
 
-@njit(**OPTS)
+@njit(**INLINE)
 def arm_begin(kin, arm, io, out, work):
     """Start one quasi-static step of :class:`tactile_bt.robot.arm.CompliantArm` (see
     :func:`arm_next`).
@@ -512,7 +512,7 @@ def arm_begin(kin, arm, io, out, work):
     return STATUS_EVALUATE
 
 
-@njit(**OPTS)
+@njit(**INLINE)
 def arm_next(contact_status, kin, arm, io, out, work):
     """Continue the step of :func:`arm_begin` with the contact's wrench and stiffness at the
     trial point (``contact_status`` non-zero: the contact model failed).

@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numba import njit
 
-from tactile_bt.robot.kernels import OPTS, STATUS_EVALUATE, arm_begin, arm_next, arm_work
+from tactile_bt.robot.kernels import INLINE, OPTS, STATUS_EVALUATE, arm_begin, arm_next, arm_work
 
 __all__ = [
     "SHAPE_TABLE",
@@ -315,7 +315,7 @@ def to_local(objf, o, P, m, L):
         L[i, 2] = dx * r02 + dy * r12 + dz * r22
 
 
-@njit(**OPTS)
+@njit(**INLINE)
 def pad_contact(T, data, w, K):
     """Penetration of the pad's samples at pose ``T`` into the objects: the force image and the
     contact wrench and stiffness (for the arm's equilibrium, :func:`tactile_bt.robot.kernels.arm_next`).
