@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
@@ -34,6 +35,30 @@ def test_a_recorded_mission_replays_deterministically(tmp_path):
         assert_array_equal(first.log[key], mission.log[key])
         assert_array_equal(again.log[key], first.log[key])
     assert first.report["metrics"].keys() == mission.report["metrics"].keys()
+
+
+def test_a_replay_knows_the_table_the_mission_knew(tmp_path):
+    from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, write_table_height
+    from tactile_bt.tree.blackboard import read
+
+    rec = tmp_path / "cable.tbr"
+    run_mission(TREE, SCENE, duration=0.1, seed=2, recording=rec)
+    table_z = read(TABLE_Z_KEY)
+    assert table_z == pytest.approx(read_recording(rec).metadata["table_z_m"])
+    write_table_height(float("nan"))
+    replay_mission(TREE, rec)
+    assert read(TABLE_Z_KEY) == pytest.approx(table_z)
+
+
+def test_a_recording_with_a_bad_table_height_is_a_clear_error(tmp_path):
+    from tactile_bt.errors import RecordingError
+    from tactile_bt.sense.hardware.recording import Recorder
+
+    path = tmp_path / "bad.tbr"
+    with Recorder(path, metadata={"table_z_m": "low"}) as recorder:
+        recorder.write(np.zeros((16, 16), dtype=np.uint16), np.eye(4), timestamp=0.0)
+    with pytest.raises(RecordingError, match="bad.tbr.*table_z_m"):
+        replay_mission(TREE, path)
 
 
 def test_replay_of_an_empty_recording_is_a_clear_error(tmp_path):

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import py_trees
 
-from tactile_bt.errors import ReplayError
+from tactile_bt.errors import RecordingError, ReplayError
 from tactile_bt import defaults
 from tactile_bt.sense.calibration import TactelCalibration
 from tactile_bt.sense.geometry import PadGeometry
@@ -42,6 +42,8 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         ``None`` as fast as possible, ``1.0`` at the recorded pace, ``2.0`` twice as fast.
         The results do not depend on it.
 
+    The tree finds the set-up the mission had on the blackboard: the table height a mission
+    recording holds (``/setup/table_z_m``; NaN for a recording of the sensor alone).
     A torn last chunk is left out with a ``RecordingWarning``; ``report["warnings"]`` lists
     every warning of the replay.  Raises :class:`~tactile_bt.sense.hardware.recording.RecordingError`
     for an unreadable or empty recording and :class:`ReplayError` for an unusable calibration
@@ -54,6 +56,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     from tactile_bt.mission.loop import ControlLoop, root_outcome
     from tactile_bt.mission.result import finish_mission
     from tactile_bt.mission.run import calibration_path
+    from tactile_bt.tree.behaviours.table import write_table_height
 
     if speed is not None and not (math.isfinite(speed) and speed > 0):
         raise ReplayError(f"speed must be a finite number > 0 or None, got {speed}")
@@ -102,6 +105,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
         dt = 1.0 / float(rec.metadata["rate_hz"])
     else:
         dt = float(np.median(np.diff(t))) if n > 1 else 1.0 / defaults.RATE_HZ
+    write_table_height(_table_height(rec.metadata, recording))  # the set-up the mission had
     loop = ControlLoop(tree, calibration, dt, orientation_method, pad=pad)
     log = MissionLog(n)
     status, reason, wall_start = "completed", "", time.perf_counter()
@@ -126,3 +130,14 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     if out is not None:
         result.save(out)
     return result
+
+
+def _table_height(metadata: dict, recording) -> float:
+    """The table height a mission recording holds (``table_z_m``, m, world z), NaN when it holds
+    none (a recording of the sensor alone, or a scene without a table)."""
+    value = metadata.get("table_z_m")
+    if value is None:
+        return math.nan
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise RecordingError(f"{recording}: metadata table_z_m {value!r} is not a finite height in m")
+    return float(value)

@@ -132,7 +132,7 @@ def run_mission(
         prepare_output_dir(out)
 
     pad = scene.sensor.geometry
-    _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
+    table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
     contacts = loop.contacts
 
@@ -156,7 +156,8 @@ def run_mission(
         world.calibration.save(calibration_path(recording))
         recorder = stack.enter_context(Recorder(recording, pad.rows, pad.cols,
                                                 metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
-                                                          "pitch_m": pad.pitch}))
+                                                          "pitch_m": pad.pitch,
+                                                          "table_z_m": None if math.isnan(table_z_m) else table_z_m}))
     wall_start = time.perf_counter()
     try:
         for k in range(n_cycles):
@@ -200,14 +201,17 @@ def run_mission(
     return result
 
 
-def _write_setup(scene) -> None:
+def _write_setup(scene) -> float:
     """The robot's known set-up on the blackboard, for the tree: the height of the scene's
-    table (``/setup/table_z_m``, m, world z; NaN when it has none). Never the object."""
+    table (``/setup/table_z_m``, m, world z; NaN when it has none). Never the object.
+    Returns the height written."""
     from tactile_bt.sim.objects import Table
     from tactile_bt.tree.behaviours.table import write_table_height
 
     table = next((o for o in scene.objects if isinstance(o, Table)), None)
-    write_table_height(math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2]))
+    height = math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2])
+    write_table_height(height)
+    return height
 
 
 #: Largest mission the preallocated log holds (cycles): 10 min at 1.9 kHz, 76 min at 250 Hz.
