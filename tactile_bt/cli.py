@@ -17,6 +17,9 @@ __all__ = ["main"]
 
 
 def _cmd_run(args) -> int:
+    from tactile_bt.sim import warmup
+
+    warmup.start()  # first, so a cold kernel cache compiles while the rest is imported
     from tactile_bt.mission.run import calibration_path, run_mission
 
     if args.record is not None:  # before the mission: never overwrite a file unasked

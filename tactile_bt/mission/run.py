@@ -25,6 +25,7 @@ from tactile_bt.errors import MissionLengthError
 from tactile_bt.mission.log import MissionLog
 from tactile_bt.mission.loop import ControlLoop, root_outcome
 from tactile_bt.mission.result import MissionResult, finish_mission
+from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
 __all__ = ["run_mission", "calibration_path", "MAX_CYCLES"]
@@ -117,6 +118,7 @@ def run_mission(
         Blackboard keys the tree reads, written before it starts, as ``--blackboard``; only with a
         tree file.
     """
+    kernel_build.start()  # on a cold kernel cache: the arm's kernels compile in a second process
     tree, scene = _resolve(tree, scene, overrides, params, blackboard)
     scan = _scan_settings(tree, scene, reconstruct, scan_region)
     duration = float(scene.duration_s if duration is None else duration)
@@ -131,6 +133,7 @@ def run_mission(
 
         prepare_output_dir(out)
 
+    kernel_build.finish()  # ... and the rest here, before the mission's clock starts
     pad = scene.sensor.geometry
     table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)

@@ -1,0 +1,55 @@
+"""The first run's kernel build on two cores (tactile_bt.sim.warmup)."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tactile_bt import run_mission
+from tactile_bt.sim import warmup
+
+ROOT = Path(__file__).resolve().parent.parent
+TREE = ROOT / "trees" / "cable_follow.yaml"
+SCENE = ROOT / "sim" / "cable.yaml"
+
+
+def test_the_build_ahead_compiles_exactly_what_a_mission_calls():
+    """Every declared signature is the one a mission compiles: after a mission, each is in
+    numba's cache (a wrong one would not be, and the build would compile a useless version)."""
+    run_mission(TREE, SCENE, duration=0.05)
+    for group in warmup.GROUPS + ("entry",):
+        for dispatcher, signature in warmup._signatures(group):
+            assert warmup.is_cached(dispatcher, signature), f"{group}: {dispatcher.py_func.__name__}{signature}"
+
+
+def test_a_warm_cache_starts_no_second_process():
+    run_mission(TREE, SCENE, duration=0.05)
+    warmup.start()
+    assert warmup._build is None
+    warmup.finish()  # nothing to wait for
+
+
+def test_an_unknown_group_is_named():
+    with pytest.raises(ValueError, match="unknown kernel group 'elbow'"):
+        warmup.compile_group("elbow")
+
+
+def test_a_first_run_on_an_empty_cache_builds_on_two_processes_and_gives_the_same_run(tmp_path):
+    """The cold path end to end: a fresh process with an empty kernel cache runs the mission
+    (the second process fills the cache as it goes), and a warm run of it gives the same report."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p))
+    outputs = []  # (rc 1: a mission this short ends on its budget, not by touch)
+    for run in ("cold", "warm"):
+        out = tmp_path / run
+        done = subprocess.run([sys.executable, "-m", "tactile_bt.cli", "run", str(TREE), "--scene", str(SCENE),
+                               "--duration", "2", "--out", str(out)], env=env, capture_output=True, text=True,
+                              timeout=600)
+        assert done.returncode in (0, 1) and "Traceback" not in done.stderr, done.stderr
+        lines = done.stdout.splitlines()
+        outputs.append((done.returncode, lines[0].split(" (")[0], lines[1:-1]))  # no wall-clock factor, no path
+    assert outputs[0] == outputs[1]
+    cached = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
+    assert {"kernels.rates_fast", "kernels.largest_region", "kernels._integrate", "kernels.pad_kernel"} <= cached
