@@ -33,3 +33,11 @@ def test_the_cable_mission_at_a_control_rate_gives_its_row():
     assert row["rate_hz"] == 100 and row["finite"]
     assert row["path_error_mean_mm"] >= 0 and row["followed_mm"] > 0
     assert set(row) >= {"wall_time_s", "real_time_factor", "pressure_std", "pressure_steady_state_error"}
+
+
+def test_the_table_prints_no_negative_zero():
+    """A joint driven exactly into its limit has a margin of -1e-12 deg, not '-0.0'."""
+    from tactile_bt.experiments.stability import _fmt
+
+    assert _fmt(-1e-12, ".1f") == "0.0" and _fmt(-1e-12, "+.4f") == "+0.0000"
+    assert _fmt(-0.25, ".1f") == "-0.2" and _fmt(None, ".1f") == _fmt(float("nan"), ".1f") == "–"

@@ -238,7 +238,14 @@ def plot_rates(rows: list[dict], path: Path) -> Path:
 
 
 def _fmt(x, spec: str) -> str:
-    return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+    """``x`` formatted, ``–`` for none or non-finite; a negative number that rounds to zero
+    prints as zero (no ``-0.0``)."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    text = format(x, spec)
+    if text.startswith("-") and float(text) == 0.0:
+        text = format(0.0, spec)
+    return text
 
 
 def format_table(cases: list[dict], rates: list[dict]) -> str:
