@@ -24,7 +24,7 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, 
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 
-__all__ = ["TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale"]
+__all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale"]
 
 _ZERO_TWIST = (0.0,) * 6
 #: The statuses a behaviour may return (py_trees checks against ``list(Status)`` each tick).
@@ -46,7 +46,32 @@ def metric_scale(component: int, pad: PadGeometry) -> float:
     return 1.0 / pad.pitch if component in (0, 1) else 1.0
 
 
-class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
+class LazyFeedback:
+    """A py_trees node whose ``feedback_message`` is formatted only when somebody reads it.
+
+    Formatting a message every control cycle would cost more than most leaves' work, so a node
+    that runs sets ``self._feedback = None`` and overrides :meth:`describe`; reading
+    ``feedback_message`` then returns ``describe()`` of the node's current state. Assigning
+    ``feedback_message`` (an end, a fixed word) stores that message as py_trees does.
+    """
+
+    _feedback: str | None = ""
+
+    @property
+    def feedback_message(self) -> str:
+        message = self._feedback
+        return self.describe() if message is None else message
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def describe(self) -> str:
+        """The message of the node's current state, while no fixed message is set."""
+        return ""
+
+
+class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behaviour):
     """A py_trees leaf with read access to the cycle data of the ``/tactile`` blackboard.
 
     Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
@@ -247,19 +272,8 @@ class ServoLeaf(TactileBehaviour):
         """The twist part ``P_i · J⁻¹ · u`` this leaf added in its last tick (sensor frame)."""
         return np.array(self._last_twist, dtype=float)
 
-    # Formatting a message every 4 ms cycle would cost more than the control law, so the
-    # message of a tracking leaf is built only when somebody reads it.
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return self._format_error()
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
-
-    def _format_error(self) -> str:
+    def describe(self) -> str:
+        """The errors of the last tick (measured − target, logged units)."""
         return "error " + ", ".join(
             f"{metric}={-e * scale:+.3g}" for (metric, scale), e in zip(self._metrics, self.last_error)
         )
@@ -307,7 +321,7 @@ class ServoLeaf(TactileBehaviour):
             twist[r] += coefficient * u[j]
         self._last_twist = twist
         command.add(self.name, twist)
-        self._feedback = None  # formatted on demand from last_error (see feedback_message)
+        self._feedback = None  # described on demand from last_error
         if self.converge:
             band = self.band
             inside = True
@@ -320,7 +334,7 @@ class ServoLeaf(TactileBehaviour):
                 if self._inside_since is None:
                     self._inside_since = now
                 if now - self._inside_since >= self.dwell_s:
-                    self._feedback = self._format_error() + " (converged)"
+                    self._feedback = self.describe() + " (converged)"
                     return Status.SUCCESS
             else:
                 self._inside_since = None

@@ -190,10 +190,17 @@ class CableEnd(TactileBehaviour):
             window.popleft()
         gone = [v for _, v in window if v]
         if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * len(gone) <= len(window):
-            self.feedback_message = f"on the line, reaching {self.reach_px:.1f} px ahead" if not verdict else verdict
+            if verdict:
+                self.feedback_message = verdict
+            else:
+                self._feedback = None  # described when read
             return Status.RUNNING
         self.feedback_message = "end of cable: " + _REASONS[max(set(gone), key=gone.count)]
         return Status.SUCCESS
+
+    def describe(self) -> str:
+        """On the line: how far it reaches ahead of the pad centre."""
+        return f"on the line, reaching {self.reach_px:.1f} px ahead"
 
 
 #: What each verdict of :meth:`CableEnd.judge` means at the end of a follow.

@@ -180,18 +180,11 @@ class RecordContacts(TactileBehaviour):
         numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m", "table_margin_m")
         super().set_parameter(name, float(value) if name in numeric else value)
 
-    # Formatted only when somebody reads it (not every cycle).
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            contacts = getattr(self, "contacts", None)
-            n = len(contacts) if contacts is not None else 0
-            return f"{n} contacts" + ("" if self._in_contact else ", not in contact")
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """Samples in the cloud, and whether the pad is in contact."""
+        contacts = getattr(self, "contacts", None)
+        n = len(contacts) if contacts is not None else 0
+        return f"{n} contacts" + ("" if self._in_contact else ", not in contact")
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)

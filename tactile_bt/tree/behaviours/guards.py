@@ -12,7 +12,7 @@ import py_trees
 from py_trees.common import Access, Status
 from py_trees.logging import Level
 
-from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.base import LazyFeedback, TactileBehaviour
 from tactile_bt.tree.blackboard import NAMESPACE, TIME, read
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
 
@@ -21,7 +21,7 @@ __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 _STATUSES = tuple(Status)
 
 
-class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
+class MissionTimeout(LazyFeedback, BoundedParameters, py_trees.decorators.Decorator):
     """Run ``child`` for at most ``duration_s`` seconds of mission time, then FAILURE
     (or SUCCESS with ``succeed=True``, for phases that simply last a while). A child that
     finishes in time passes its status through. The clock restarts whenever the decorator
@@ -65,15 +65,9 @@ class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
         else:
             raise ValueError(f"{self.name}: {name} is fixed at construction")
 
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"{self._elapsed:.2f} / {self.duration_s:g} s"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """Mission time used so far and allowed."""
+        return f"{self._elapsed:.2f} / {self.duration_s:g} s"
 
     def tick(self):
         """py_trees' :meth:`~py_trees.decorators.Decorator.tick` without a debug message
@@ -177,15 +171,9 @@ class ForceLimit(TactileBehaviour):
             raise ValueError(f"{self.name}: limit_n must be positive, got {value}")
         super().set_parameter(name, float(value) if name == "limit_n" else value)
 
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"force {self._force:.2f} N"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """The unsmoothed force of the last tick."""
+        return f"force {self._force:.2f} N"
 
     def update(self) -> Status:
         force = self._force = self.features_raw.force

@@ -302,9 +302,12 @@ class StripeEnd(TactileBehaviour):
                                              f"after {self.travelled * 1e3:.0f} mm")
                     self.cause = "stall"
                     return self._end
-        self.feedback_message = f"{self.travelled * 1e3:.0f} mm"
+        self._feedback = None
         return Status.RUNNING
 
+    def describe(self) -> str:
+        """Travel of the contact point so far."""
+        return f"{self.travelled * 1e3:.0f} mm"
 
     def _edge(self, point: np.ndarray, normal: np.ndarray) -> str:
         """Why the pad is rolling over an edge, judged against a few earlier samples of the
@@ -359,6 +362,7 @@ class CoverageStalled(TactileBehaviour):
         self.set_parameter("min_samples", min_samples)
         self._history: collections.deque = collections.deque()
         self._start = 0.0
+        self._size = 0
 
     def set_parameter(self, name: str, value) -> None:
         if name == "window_s" and not value > 0:
@@ -386,5 +390,10 @@ class CoverageStalled(TactileBehaviour):
             if grown < self.min_growth * size:
                 self.feedback_message = f"coverage stalled: {grown} new samples in {self.window_s:g} s ({size} in all)"
                 return Status.SUCCESS
-        self.feedback_message = f"{size} samples"
+        self._size = size
+        self._feedback = None
         return Status.RUNNING
+
+    def describe(self) -> str:
+        """Samples in the cloud at the last tick."""
+        return f"{self._size} samples"
