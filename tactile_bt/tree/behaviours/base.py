@@ -24,7 +24,7 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, 
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 
-__all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale"]
+__all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale", "norm"]
 
 _ZERO_TWIST = (0.0,) * 6
 #: The statuses a behaviour may return (py_trees checks against ``list(Status)`` each tick).
@@ -38,6 +38,12 @@ METRIC_OF_COMPONENT = {
     2: "pressure_pa",
     3: "orientation_rad",
 }
+
+
+def norm(v: np.ndarray) -> float:
+    """``float(numpy.linalg.norm(v))`` of a float vector: the same product and square root,
+    without that function's dispatch (a few µs, in leaves that run every cycle)."""
+    return math.sqrt(v.dot(v))
 
 
 def metric_scale(component: int, pad: PadGeometry) -> float:

@@ -52,6 +52,14 @@ def _along(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad
     return (x - centre_px[0]) * math.cos(direction_rad) + (y - centre_px[1]) * math.sin(direction_rad)
 
 
+@functools.lru_cache(maxsize=16)
+def _moment_basis(shape: tuple[int, int]) -> np.ndarray:
+    """Rows 1, x, y, x², y², x·y over the tactels of a ``shape`` pad (x = column, y = row): one
+    product with a mask gives every sum :func:`_shape` needs."""
+    x, y = _grid(shape)
+    return np.stack((np.ones_like(x), x, y, x * x, y * y, x * y))
+
+
 def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: float) -> float:
     """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
     ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
@@ -62,17 +70,15 @@ def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: 
 
 def _shape(mask: np.ndarray) -> tuple[float, float]:
     """Anisotropy ``(l1 - l2) / (l1 + l2)`` (1 for a line, 0 for a disc) and axis angle (rad,
-    from +x towards +y) of the tactel positions of ``mask`` (second moments by dot products: this
-    runs every control cycle)."""
-    m = mask.ravel().astype(float)
-    n = float(m.sum())
+    from +x towards +y) of the tactel positions of ``mask`` (second moments by one matrix
+    product, exact sums of small integers: this runs every control cycle)."""
+    n, sum_x, sum_y, sum_xx, sum_yy, sum_xy = (_moment_basis(mask.shape) @ mask.ravel().astype(float)).tolist()
     if n < 3:
         return 1.0, math.nan
-    x, y = _grid(mask.shape)
-    mx, my = float(m @ x) / n, float(m @ y) / n
-    sxx = float(m @ (x * x)) / n - mx * mx
-    syy = float(m @ (y * y)) / n - my * my
-    sxy = float(m @ (x * y)) / n - mx * my
+    mx, my = sum_x / n, sum_y / n
+    sxx = sum_xx / n - mx * mx
+    syy = sum_yy / n - my * my
+    sxy = sum_xy / n - mx * my
     total = sxx + syy
     if total <= 0:
         return 0.0, math.nan
@@ -139,11 +145,13 @@ class CableEnd(TactileBehaviour):
         self._writer = self.attach_blackboard_client(name=f"{name}/on_line")
         self._writer.register_key(key=self.on_line_key, access=Access.WRITE)
         self._window: deque[tuple[float, str]] = deque()
+        self._gone = 0  # verdicts in the window that say the line is gone
         self._lost_since: float | None = None
         self.reach_px = math.nan
 
     def initialise(self) -> None:
         self._window.clear()
+        self._gone = 0
         self._lost_since = None
         self.reach_px = math.nan
         self.feedback_message = ""
@@ -160,7 +168,8 @@ class CableEnd(TactileBehaviour):
         if abs(wrap_half_pi(axis - self.direction_rad)) > self.max_turn_rad:
             return "turned"
         cx, cy = pad.centre_px
-        dx, dy = f.cop_px[0] - cx, f.cop_px[1] - cy
+        px, py = f.cop_px.tolist()
+        dx, dy = px - cx, py - cy
         if abs(dx * math.sin(axis) - dy * math.cos(axis)) * pad.pitch > self.max_offset_m:
             return "offset"
         self.reach_px = line_reach(f.mask, pad.centre_px, self.direction_rad)
@@ -174,6 +183,7 @@ class CableEnd(TactileBehaviour):
         if not f.in_contact:
             write(self.on_line_key, False)
             self._window.clear()
+            self._gone = 0
             if self._lost_since is None:
                 self._lost_since = now
             if now - self._lost_since >= self.lost_s:
@@ -186,15 +196,18 @@ class CableEnd(TactileBehaviour):
         write(self.on_line_key, not verdict)
         window = self._window
         window.append((now, verdict))
+        if verdict:
+            self._gone += 1
         while window[0][0] < now - self.dwell_s - 1e-9:
-            window.popleft()
-        gone = [v for _, v in window if v]
-        if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * len(gone) <= len(window):
+            if window.popleft()[1]:
+                self._gone -= 1
+        if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * self._gone <= len(window):
             if verdict:
                 self.feedback_message = verdict
             else:
                 self._feedback = None  # described when read
             return Status.RUNNING
+        gone = [v for _, v in window if v]
         self.feedback_message = "end of cable: " + _REASONS[max(set(gone), key=gone.count)]
         return Status.SUCCESS
 
