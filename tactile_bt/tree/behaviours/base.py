@@ -22,6 +22,7 @@ from py_trees.logging import Level
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
+from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 
 __all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale", "norm"]
@@ -38,6 +39,41 @@ METRIC_OF_COMPONENT = {
     2: "pressure_pa",
     3: "orientation_rad",
 }
+
+
+def _errors(components: tuple[int, ...], active: list[int]):
+    """The per-cycle error function of a servo leaf: ``(features in contact, targets) -> Δf`` of
+    its ``components`` (:func:`~tactile_bt.control.servo.feature_error`'s formulas), only the
+    ``active`` ones computed, NaN for the others (their PID loops get NaN anyway)."""
+    n = len(components)
+    if len(active) == n:  # every component controlled: one formula for each usual leaf
+        if components == (2,):
+            return lambda f, targets: [targets[1] - f.pressure]
+        if components == (3,):
+            return lambda f, targets: [wrap_half_pi(targets[2] - f.orientation)]
+        if components == (0, 1):
+            def cop_error(f, targets):
+                x, y = f.cop_xy
+                cop = targets[0]
+                return [cop[0] - x, cop[1] - y]
+            return cop_error
+    wanted = {components[j] for j in active}
+
+    def error(f, targets):
+        full = [math.nan] * 4
+        cop, pressure, alpha = targets
+        if 0 in wanted or 1 in wanted:
+            x, y = f.cop_xy
+            full[0], full[1] = cop[0] - x, cop[1] - y
+        if 2 in wanted:
+            full[2] = pressure - f.pressure
+        if 3 in wanted:
+            full[3] = wrap_half_pi(alpha - f.orientation)
+        out = [math.nan] * n
+        for j in active:
+            out[j] = full[components[j]]
+        return out
+    return error
 
 
 def norm(v: np.ndarray) -> float:
@@ -234,14 +270,16 @@ class ServoLeaf(TactileBehaviour):
         # Components with no row in P·J⁻¹ are not controlled (e.g. a tactile_servo whose P
         # leaves them out): they neither gate the leaf on NaN nor appear in the error log.
         self._active = [j for j in range(n) if self._rows_of[j]]
-        # Their PID loops would run for nothing: the PID sees NaN there (state held, u = 0).
-        self._idle = [j for j in range(n) if not self._rows_of[j]]
+        # Their errors are computed only when read (last_error); their PID loops would run for
+        # nothing and see NaN (state held, u = 0).
+        self._error = _errors(tuple(self.components), self._active)
+        self._no_contact = [math.nan] * n
+        self._inputs = None  # features and targets of the last tick, for last_error
         self._set_pad(PadGeometry())  # the mission's pad replaces it when the leaf starts
         self.converge = bool(converge)
         self.set_parameter("band", band)
         self.set_parameter("dwell_s", dwell_s)
         self._inside_since: float | None = None
-        self.last_error = [math.nan] * n
         self._last_twist = _ZERO_TWIST
 
     def _make_pid(self, kp, ki, kd, output_limit) -> PID:
@@ -278,6 +316,16 @@ class ServoLeaf(TactileBehaviour):
         """The twist part ``P_i · J⁻¹ · u`` this leaf added in its last tick (sensor frame)."""
         return np.array(self._last_twist, dtype=float)
 
+    @property
+    def last_error(self) -> list[float]:
+        """Δf of every component at the last tick (m, Pa, rad; NaN before the first tick or
+        where undefined), computed when read."""
+        if self._inputs is None:
+            return [math.nan] * len(self.components)
+        f, (cop, pressure, alpha) = self._inputs
+        full = feature_error(f, cop, pressure, alpha)
+        return [full[c] for c in self.components]
+
     def describe(self) -> str:
         """The errors of the last tick (measured − target, logged units)."""
         return "error " + ", ".join(
@@ -298,10 +346,10 @@ class ServoLeaf(TactileBehaviour):
 
     def update(self) -> Status:
         f = read(FEATURES)
-        cop, pressure, alpha = self.targets()
-        full = feature_error(f, cop, pressure, alpha)
-        error = [full[c] for c in self.components]
-        self.last_error = error
+        targets = self.targets()
+        self._inputs = (f, targets)
+        # only the controlled components: the others are computed when last_error is read
+        error = self._error(f, targets) if f.in_contact else self._no_contact
         command = self.command
         errors = command.errors
         finite = True
@@ -315,13 +363,7 @@ class ServoLeaf(TactileBehaviour):
             self._inside_since = None
             self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
             return _RUNNING
-        if self._idle:
-            controlled = list(error)
-            for j in self._idle:
-                controlled[j] = math.nan
-            u = self.pid.update(controlled, self.dt)
-        else:
-            u = self.pid.update(error, self.dt)
+        u = self.pid.update(error, self.dt)  # NaN for the idle components: no command there
         twist = [0.0] * 6
         for j, r, coefficient in self._terms:
             twist[r] += coefficient * u[j]
@@ -336,7 +378,7 @@ class ServoLeaf(TactileBehaviour):
                     inside = False
                     break
             if inside:
-                now = self.now
+                now = read(TIME)
                 if self._inside_since is None:
                     self._inside_since = now
                 if now - self._inside_since >= self.dwell_s:
