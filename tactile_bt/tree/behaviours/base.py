@@ -17,19 +17,17 @@ import math
 import numpy as np
 import py_trees
 from py_trees.common import Access, Status
-from py_trees.logging import Level
 
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
 from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
+from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
 
 __all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale", "norm"]
 
 _ZERO_TWIST = (0.0,) * 6
-#: The statuses a behaviour may return (py_trees checks against ``list(Status)`` each tick).
-_STATUSES = tuple(Status)
 _RUNNING = Status.RUNNING
 
 #: Name of the logged error of each feature component (units: px of the pad, Pa, rad).
@@ -172,19 +170,22 @@ class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behav
         do no work: a debug message formatted while py_trees' debug log is off, and the list of
         all statuses built to check the one ``update`` returned. Same calls, same order, same
         result; with py_trees' debug log on, py_trees' own ``tick`` runs."""
-        if py_trees.logging.level < Level.INFO:
+        if debug_logging():
             yield from super().tick()
             return
+        self.tick_direct()
+        yield self
+
+    def tick_direct(self) -> None:
+        """:meth:`tick` without the generator (:mod:`tactile_bt.tree.ticking`)."""
         if self.status != _RUNNING:
             self.initialise()
         new_status = self.update()
-        if new_status not in _STATUSES:
-            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
-            new_status = Status.INVALID
+        if new_status not in STATUSES:
+            new_status = checked(self, new_status)
         if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status
-        yield self
 
     def set_parameter(self, name: str, value) -> None:
         """Change parameter ``name`` (already checked against its type) between runs.

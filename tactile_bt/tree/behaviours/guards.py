@@ -10,18 +10,16 @@ from __future__ import annotations
 
 import py_trees
 from py_trees.common import Access, Status
-from py_trees.logging import Level
 
 from tactile_bt.tree.behaviours.base import LazyFeedback, TactileBehaviour
 from tactile_bt.tree.blackboard import NAMESPACE, TIME, read
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
+from tactile_bt.tree.ticking import DirectDecorator
 
 __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 
-_STATUSES = tuple(Status)
 
-
-class MissionTimeout(LazyFeedback, BoundedParameters, py_trees.decorators.Decorator):
+class MissionTimeout(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Decorator):
     """Run ``child`` for at most ``duration_s`` seconds of mission time, then FAILURE
     (or SUCCESS with ``succeed=True``, for phases that simply last a while). A child that
     finishes in time passes its status through. The clock restarts whenever the decorator
@@ -68,25 +66,6 @@ class MissionTimeout(LazyFeedback, BoundedParameters, py_trees.decorators.Decora
     def describe(self) -> str:
         """Mission time used so far and allowed."""
         return f"{self._elapsed:.2f} / {self.duration_s:g} s"
-
-    def tick(self):
-        """py_trees' :meth:`~py_trees.decorators.Decorator.tick` without a debug message
-        formatted while py_trees' debug log is off and without building the list of all statuses
-        every tick (as :meth:`~tactile_bt.tree.behaviours.base.TactileBehaviour.tick`)."""
-        if py_trees.logging.level < Level.INFO:
-            yield from super().tick()
-            return
-        if self.status != Status.RUNNING:
-            self.initialise()
-        yield from self.decorated.tick()
-        new_status = self.update()
-        if new_status not in _STATUSES:
-            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
-            new_status = Status.INVALID
-        if new_status != Status.RUNNING:
-            self.stop(new_status)
-        self.status = new_status
-        yield self
 
     def initialise(self) -> None:
         self._start = float(read(TIME))
