@@ -10,7 +10,9 @@ about as much as a servo leaf's control law per level. These classes tick the sa
 calls on the children in the same order, same policies, same status and ``current_child`` —
 without the formatting, and have a direct tick without generators
 (:mod:`tactile_bt.tree.ticking`); with py_trees' debug log switched on they run py_trees' own
-``tick``. ``tests/test_composites.py`` checks them against py_trees' classes on random trees.
+``tick``. Each one's logic is written once, as a walk (:meth:`_Walked._walk`) that names the
+children to tick in turn and sees their statuses after each. ``tests/test_composites.py`` checks
+them against py_trees' classes on random trees.
 
 Layer: tree.
 """
@@ -27,34 +29,28 @@ __all__ = ["Parallel", "Sequence", "Selector"]
 _RUNNING, _SUCCESS, _FAILURE, _INVALID = Status.RUNNING, Status.SUCCESS, Status.FAILURE, Status.INVALID
 
 
-class Parallel(composites.Parallel):
-    """py_trees' parallel composite (same arguments, same behaviour), ticked without per-tick
-    debug formatting and generator expressions."""
+class _Walked:
+    """Both ticks of a composite from one walk over its children: ``_walk()`` yields each child
+    to tick and, when resumed, finds it ticked."""
 
     def tick(self):
         if debug_logging():
             yield from super().tick()
             return
-        if self._begin():
-            synchronise = self.policy.synchronise
-            for child in self.children:
-                if synchronise and child.status == _SUCCESS:
-                    continue
-                yield from child.tick()
-            self._conclude()
+        for child in self._walk():
+            yield from child.tick()
         yield self
 
     def tick_direct(self) -> None:
-        if self._begin():
-            synchronise = self.policy.synchronise
-            for child in self.children:
-                if synchronise and child.status == _SUCCESS:
-                    continue
-                tick_node(child)
-            self._conclude()
+        for child in self._walk():
+            tick_node(child)
 
-    def _begin(self) -> bool:
-        """The start of a tick; False when there is no child to tick (the parallel has succeeded)."""
+
+class Parallel(_Walked, composites.Parallel):
+    """py_trees' parallel composite (same arguments, same behaviour), ticked without per-tick
+    debug formatting and generator expressions."""
+
+    def _walk(self):
         self.validate_policy_configuration()
         children = self.children
         if self.status != _RUNNING:
@@ -67,13 +63,13 @@ class Parallel(composites.Parallel):
         if not children:
             self.current_child = None
             self.stop(_SUCCESS)
-            return False
-        return True
-
-    def _conclude(self) -> None:
-        """The status after the children's ticks, by the policy."""
-        children = self.children
+            return
         policy = self.policy
+        synchronise = policy.synchronise
+        for child in children:
+            if synchronise and child.status == _SUCCESS:
+                continue
+            yield child
         new_status = _RUNNING
         self.current_child = children[-1]
         failed = None
@@ -112,45 +108,11 @@ class Parallel(composites.Parallel):
         self.status = new_status
 
 
-class Sequence(composites.Sequence):
+class Sequence(_Walked, composites.Sequence):
     """py_trees' sequence (same arguments, same behaviour), ticked without per-tick debug
     formatting and without passing on every node its children yield one level at a time."""
 
-    def tick(self):
-        if debug_logging():
-            yield from super().tick()
-            return
-        index = self._begin()
-        if index is not None:
-            children = self.children
-            while index < len(children):
-                child = children[index]
-                yield from child.tick()
-                if child.status != _SUCCESS:
-                    self._stop_at(child, index)
-                    break
-                index = self._advance(index)
-            else:
-                self.stop(_SUCCESS)
-        yield self
-
-    def tick_direct(self) -> None:
-        index = self._begin()
-        if index is None:
-            return
-        children = self.children
-        while index < len(children):
-            child = children[index]
-            tick_node(child)
-            if child.status != _SUCCESS:
-                self._stop_at(child, index)
-                return
-            index = self._advance(index)
-        self.stop(_SUCCESS)
-
-    def _begin(self) -> int | None:
-        """The start of a tick: the index of the first child to tick, None when there is none
-        (the sequence has succeeded)."""
+    def _walk(self):
         children = self.children
         index = 0
         if self.status != _RUNNING:
@@ -166,96 +128,65 @@ class Sequence(composites.Sequence):
         if not children:
             self.current_child = None
             self.stop(_SUCCESS)
-            return None
-        return index
+            return
+        for index in range(index, len(children)):
+            child = children[index]
+            yield child
+            if child.status != _SUCCESS:
+                if not self.memory:
+                    # invalidate the remainder of the sequence, i.e. kill dangling runners
+                    for later in children[index + 1:]:
+                        if later.status != _INVALID:
+                            later.stop(_INVALID)
+                # stop the sequence if a terminal (non-success) state was reached
+                if child.status != _RUNNING:
+                    self.stop(child.status)
+                else:
+                    self.status = child.status
+                return
+            if index + 1 < len(children):  # advance to the next sibling, if any
+                self.current_child = children[index + 1]
+        self.stop(_SUCCESS)
 
-    def _stop_at(self, child, index: int) -> None:
-        """``child`` (at ``index``) has not succeeded: the sequence takes its status."""
-        if not self.memory:
-            # invalidate the remainder of the sequence, i.e. kill dangling runners
-            for later in self.children[index + 1:]:
-                if later.status != _INVALID:
-                    later.stop(_INVALID)
-        if child.status != _RUNNING:
-            self.stop(child.status)
-        else:
-            self.status = child.status
 
-    def _advance(self, index: int) -> int:
-        """Move ``current_child`` past a child that succeeded; the next index to tick."""
-        if index + 1 < len(self.children):
-            self.current_child = self.children[index + 1]
-        return index + 1
-
-
-class Selector(composites.Selector):
+class Selector(_Walked, composites.Selector):
     """py_trees' selector (same arguments, same behaviour), ticked without per-tick debug
     formatting and without passing on every node its children yield one level at a time."""
 
-    def tick(self):
-        if debug_logging():
-            yield from super().tick()
-            return
-        index = self._begin()
-        if index is not None:
-            previous = self.current_child
-            for child in self.children[index:]:
-                yield from child.tick()
-                if child.status == _RUNNING or child.status == _SUCCESS:
-                    self._choose(child, previous)
-                    break
-            else:
-                self._fail()
-        yield self
-
-    def tick_direct(self) -> None:
-        index = self._begin()
-        if index is None:
-            return
-        previous = self.current_child
-        for child in self.children[index:]:
-            tick_node(child)
-            if child.status == _RUNNING or child.status == _SUCCESS:
-                self._choose(child, previous)
-                return
-        self._fail()
-
-    def _begin(self) -> int | None:
-        """The start of a tick: the index of the first child to tick, None when there is none
-        (the selector has failed)."""
+    def _walk(self):
         children = self.children
         if self.status != _RUNNING:
             self.current_child = children[0] if children else None
-            self.initialise()
+            self.initialise()  # user specific initialisation
         if not children:
             self.current_child = None
             self.stop(_FAILURE)
-            return None
-        if not self.memory:
-            return 0
-        index = children.index(self.current_child)
-        # clear out preceding statuses
-        for child in children[:index]:
-            if child.status != _INVALID:
-                child.stop(_INVALID)
-        return index
-
-    def _choose(self, child, previous) -> None:
-        """``child`` runs or has succeeded: it is the selector's, the lower priorities stop."""
-        self.current_child = child
-        if previous is None or previous != child:
-            # we interrupted: invalidate everything at a lower priority
-            passed = False
-            for other in self.children:
-                if passed and other.status != _INVALID:
-                    other.stop(_INVALID)
-                passed = True if other == child else passed
-        if child.status == _SUCCESS:
-            self.stop(child.status)
-        else:
-            self.status = child.status
-
-    def _fail(self) -> None:
-        """Every child failed: so does the selector, its current child the last one."""
+            return
+        index = 0
+        if self.memory:
+            index = children.index(self.current_child)
+            # clear out preceding statuses
+            for child in children[:index]:
+                if child.status != _INVALID:
+                    child.stop(_INVALID)
+        previous = self.current_child
+        for child in children[index:]:
+            yield child
+            if child.status == _RUNNING or child.status == _SUCCESS:
+                self.current_child = child
+                if previous is None or previous != child:
+                    # we interrupted: invalidate everything at a lower priority
+                    passed = False
+                    for other in children:
+                        if passed and other.status != _INVALID:
+                            other.stop(_INVALID)
+                        passed = True if other == child else passed
+                # terminate the selector if a terminal state was reached
+                if child.status == _SUCCESS:
+                    self.stop(child.status)
+                else:
+                    self.status = child.status
+                return
+        # all children failed: so does the selector, its current child the last one
         self.stop(_FAILURE)
-        self.current_child = self.children[-1] if self.children else None
+        self.current_child = children[-1] if children else None
