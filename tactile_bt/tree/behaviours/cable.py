@@ -32,7 +32,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import write
+from tactile_bt.tree.blackboard import FEATURES_RAW, TIME, read, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, between, normalise_key
 
 __all__ = ["CableEnd", "line_reach"]
@@ -64,8 +64,13 @@ def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: 
     """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
     ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
     plus half a tactel (a tactel's far edge). ``-inf`` for an empty mask."""
-    along = _along(mask.shape, tuple(centre_px), float(direction_rad))[mask.ravel()]
-    return float(along.max()) + 0.5 if along.size else -math.inf
+    return _reach(_along(mask.shape, tuple(centre_px), float(direction_rad)), mask)
+
+
+def _reach(along: np.ndarray, mask: np.ndarray) -> float:
+    """:func:`line_reach` from the tactels' positions ``along`` the direction (flattened)."""
+    ahead = along[mask.ravel()]
+    return float(ahead.max()) + 0.5 if ahead.size else -math.inf
 
 
 def _shape(mask: np.ndarray) -> tuple[float, float]:
@@ -148,6 +153,7 @@ class CableEnd(TactileBehaviour):
         self._gone = 0  # verdicts in the window that say the line is gone
         self._lost_since: float | None = None
         self.reach_px = math.nan
+        self._along_of = (None, math.nan, None)  # (pad, direction, tactels along it): judge's cache
 
     def initialise(self) -> None:
         self._window.clear()
@@ -172,14 +178,19 @@ class CableEnd(TactileBehaviour):
         dx, dy = px - cx, py - cy
         if abs(dx * math.sin(axis) - dy * math.cos(axis)) * pad.pitch > self.max_offset_m:
             return "offset"
-        self.reach_px = line_reach(f.mask, pad.centre_px, self.direction_rad)
+        cached_pad, direction, along = self._along_of
+        if pad is not cached_pad or direction != self.direction_rad:
+            direction = self.direction_rad
+            along = _along(pad.shape, pad.centre_px, float(direction))
+            self._along_of = (pad, direction, along)
+        self.reach_px = _reach(along, f.mask)
         if self.reach_px * pad.pitch < self.reach_m:
             return "short"
         return ""
 
     def update(self) -> Status:
-        f = self.features_raw
-        now = self.now
+        f = read(FEATURES_RAW)
+        now = read(TIME)
         if not f.in_contact:
             write(self.on_line_key, False)
             self._window.clear()

@@ -44,13 +44,11 @@ def tangent_guidance(pose: np.ndarray, direction: np.ndarray, speed_mps: float) 
     ``pose`` (``T_gs``) along the world ``direction`` (unit vector): the direction projected onto
     the pad's tangent plane, at ``speed_mps``; zero when the direction is along the pad normal."""
     R = pose[:3, :3]
-    along = R.T @ direction  # the direction in the sensor frame
-    tangential = math.hypot(along[0], along[1])
-    twist = np.zeros(6)
+    x, y, _ = (R.T @ direction).tolist()  # the direction in the sensor frame
+    tangential = math.hypot(x, y)
     if tangential > 1e-3:  # not along the pad normal
-        twist[0] = speed_mps * along[0] / tangential
-        twist[1] = speed_mps * along[1] / tangential
-    return twist
+        return np.array((speed_mps * x / tangential, speed_mps * y / tangential, 0.0, 0.0, 0.0, 0.0))
+    return np.zeros(6)
 
 
 class ScanDirection(TactileBehaviour):
@@ -97,10 +95,10 @@ class ScanDirection(TactileBehaviour):
         return tangent_guidance(pose, self.direction, self.speed_mps)
 
     def initialise(self) -> None:
-        write(self.key, self.guidance(self.pose))
+        write(self.key, self.guidance(read(POSE)))
 
     def update(self) -> Status:
-        self.twist = self.guidance(self.pose)
+        self.twist = self.guidance(read(POSE))
         write(self.key, self.twist)
         return Status.RUNNING
 
