@@ -38,6 +38,7 @@ class Scripted(TactileBehaviour):
 
     def update(self):
         self.log.append((self.name, "update"))
+        self.feedback_message = f"update {len(self.log)}"  # for the decorators that pass it on
         return next(self.script)
 
     def terminate(self, new_status):

@@ -5,8 +5,8 @@ They are py_trees' own :mod:`py_trees.decorators` (``Retry``, ``Repeat``, ``Inve
 loader can check them like the leaves. None of them reads wall time; for a time limit use
 :class:`~tactile_bt.tree.behaviours.guards.MissionTimeout` (mission clock). They tick as
 py_trees' decorators do, without a debug message formatted every tick and with a direct tick
-(:mod:`tactile_bt.tree.ticking`); ``repeat`` and ``retry`` format their message of a running
-child only when it is read.
+(:mod:`tactile_bt.tree.ticking`); ``repeat``, ``retry`` and ``inverter`` format their message
+of a running child only when it is read.
 
 Layer: tree.
 """
@@ -108,7 +108,7 @@ class Repeat(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorato
         return f"running [status: {self.success} success from {self.num_success}]"
 
 
-class Inverter(DirectDecorator, py_trees.decorators.Inverter):
+class Inverter(LazyFeedback, DirectDecorator, py_trees.decorators.Inverter):
     """Swap the child's SUCCESS and FAILURE; RUNNING passes through.
 
     Parameters
@@ -123,6 +123,17 @@ class Inverter(DirectDecorator, py_trees.decorators.Inverter):
 
     def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "inverter") -> None:
         super().__init__(name=name, child=child)
+
+    def update(self) -> Status:
+        status = self.decorated.status
+        if status == Status.SUCCESS or status == Status.FAILURE:
+            return super().update()
+        self._feedback = None  # the child's message, when read
+        return status
+
+    def describe(self) -> str:
+        """The message of a running child: its own."""
+        return self.decorated.feedback_message
 
 
 class OneShot(DirectDecorator, py_trees.decorators.OneShot):
