@@ -106,3 +106,25 @@ def test_the_cable_tree_ends_at_the_end_of_a_short_cable_whatever_the_budget(tmp
         assert r.path_error_m["followed_m"] > 0.7 * r.path_error_m["cable_length_m"]
     assert reports[0].sim_time_s == reports[1].sim_time_s
     assert reports[0].path_error_m == reports[1].path_error_m
+
+
+def test_line_shape_is_the_second_moments_of_the_tactel_positions():
+    """``_shape`` (one product with a basis of moments) against the moments written out."""
+    from numpy.testing import assert_allclose
+
+    from tactile_bt.tree.behaviours.cable import _shape
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        mask = rng.random((16, 16)) < rng.uniform(0.005, 0.5)
+        rows, cols = np.nonzero(mask)
+        if rows.size < 3:
+            assert _shape(mask)[0] == 1.0 and math.isnan(_shape(mask)[1])
+            continue
+        sxx, syy = cols.var(), rows.var()
+        sxy = float(np.mean(cols * rows) - cols.mean() * rows.mean())
+        anisotropy, axis = _shape(mask)
+        total = sxx + syy
+        assert_allclose(anisotropy, math.hypot(sxx - syy, 2 * sxy) / total, rtol=1e-9, atol=1e-12)
+        if anisotropy > 1e-6:
+            assert_allclose(axis, 0.5 * math.atan2(2 * sxy, sxx - syy), rtol=1e-9, atol=1e-9)

@@ -1,8 +1,9 @@
-"""The lean ticks (``tactile_bt.tree.composites.Parallel``, ``TactileBehaviour.tick``,
-``MissionTimeout.tick``, ``tactile_bt.mission.loop.tick``) behave exactly as py_trees' own:
-random trees of scripted leaves are built twice, once from py_trees' classes and once from ours,
-ticked side by side, and every call on every node, every status and every ``current_child``
-must agree."""
+"""The lean ticks (``tactile_bt.tree.composites``, ``TactileBehaviour.tick``, the decorators'
+ticks, ``tactile_bt.mission.loop.tick`` and the direct ticks of ``tactile_bt.tree.ticking``)
+behave exactly as py_trees' own: random trees of scripted leaves are built twice, once from
+py_trees' classes and once from ours, ticked side by side, and every call on every node, every
+status, every ``current_child`` and every feedback message must agree, as must the nodes a
+visitor sees."""
 
 from __future__ import annotations
 
@@ -16,9 +17,10 @@ from py_trees.common import ParallelPolicy, Status
 
 from tactile_bt.mission.loop import tick
 from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.decorators import ONESHOT_POLICIES, Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import MissionTimeout
 from tactile_bt.tree.blackboard import TIME, write
-from tactile_bt.tree.composites import Parallel
+from tactile_bt.tree.composites import Parallel, Selector, Sequence
 
 TICKS = 10
 STATUSES = [Status.RUNNING, Status.SUCCESS, Status.FAILURE]
@@ -36,6 +38,7 @@ class Scripted(TactileBehaviour):
 
     def update(self):
         self.log.append((self.name, "update"))
+        self.feedback_message = f"update {len(self.log)}"  # for the decorators that pass it on
         return next(self.script)
 
     def terminate(self, new_status):
@@ -62,6 +65,9 @@ def nodes():
                       st.integers(0, 3), lists),
             st.tuples(st.sampled_from(["sequence", "selector"]), st.booleans(), lists),
             st.tuples(st.just("timeout"), st.floats(0.01, 0.05), st.booleans(), children),
+            st.tuples(st.sampled_from(["repeat", "retry"]), st.integers(1, 3), children),
+            st.tuples(st.just("inverter"), children),
+            st.tuples(st.just("oneshot"), st.sampled_from(["on_completion", "on_successful_completion"]), children),
         )
     return st.recursive(leaves(), extend, max_leaves=10)
 
@@ -76,9 +82,28 @@ def build(spec, ours: bool, log: list, counter=None):
         _, duration, succeed, child = spec
         cls = MissionTimeout if ours else TimeoutReference
         return cls(build(child, ours, log, counter), name=name, duration_s=duration, succeed=succeed)
+    if kind in ("repeat", "retry"):
+        _, count, child = spec
+        built = build(child, ours, log, counter)
+        if ours:
+            return Repeat(built, name, count) if kind == "repeat" else Retry(built, name, count)
+        cls = py_trees.decorators.Repeat if kind == "repeat" else py_trees.decorators.Retry
+        return cls(name, built, count)
+    if kind == "inverter":
+        built = build(spec[1], ours, log, counter)
+        return Inverter(built, name) if ours else py_trees.decorators.Inverter(name, built)
+    if kind == "oneshot":
+        _, policy, child = spec
+        built = build(child, ours, log, counter)
+        if ours:
+            return OneShot(built, name, policy)
+        return py_trees.decorators.OneShot(name, built, ONESHOT_POLICIES[policy])
     if kind in ("sequence", "selector"):
         _, memory, children = spec
-        cls = py_trees.composites.Sequence if kind == "sequence" else py_trees.composites.Selector
+        if ours:
+            cls = Sequence if kind == "sequence" else Selector
+        else:
+            cls = py_trees.composites.Sequence if kind == "sequence" else py_trees.composites.Selector
         return cls(name, memory, [build(c, ours, log, counter) for c in children])
     _, policy, pick, children = spec
     kids = [build(c, ours, log, counter) for c in children]
@@ -95,15 +120,30 @@ def build(spec, ours: bool, log: list, counter=None):
 
 
 def snapshot(root):
-    return [(n.name, n.status, getattr(getattr(n, "current_child", None), "name", None)) for n in root.iterate()]
+    return [(n.name, n.status, getattr(getattr(n, "current_child", None), "name", None), n.feedback_message)
+            for n in root.iterate()]
+
+
+class Seen(py_trees.visitors.VisitorBase):
+    """Every node a visitor is shown, in order, with its status at that moment."""
+
+    def __init__(self):
+        super().__init__(full=True)
+        self.seen = []
+
+    def run(self, behaviour):
+        self.seen.append((behaviour.name, behaviour.status))
 
 
 @settings(max_examples=300, deadline=None)
-@given(nodes())
-def test_lean_ticks_match_py_trees(spec):
+@given(nodes(), st.booleans())
+def test_lean_ticks_match_py_trees(spec, with_visitor):
     log_ref, log_ours = [], []
     ref = py_trees.trees.BehaviourTree(build(spec, False, log_ref))
     ours = py_trees.trees.BehaviourTree(build(spec, True, log_ours))
+    if with_visitor:  # the generators: every node shown to the visitor right after its tick
+        ref.visitors.append(Seen())
+        ours.visitors.append(Seen())
     for k in range(TICKS):
         write(TIME, 0.01 * k)
         ref.tick()
@@ -111,6 +151,8 @@ def test_lean_ticks_match_py_trees(spec):
         assert log_ours == log_ref
         assert snapshot(ours.root) == snapshot(ref.root)
     assert ours.count == ref.count == TICKS
+    if with_visitor:
+        assert ours.visitors[0].seen == ref.visitors[0].seen
 
 
 def test_debug_log_runs_py_trees_own_tick(monkeypatch):

@@ -325,3 +325,21 @@ def test_contact_continuity_finds_the_longest_gap():
     assert c["longest_gap_s"] == pytest.approx(0.1)
     assert c["contact_share"] == pytest.approx(1 - 25 / 450)
     assert contact_continuity(t, np.zeros_like(t))["contact_share"] is None
+
+
+def test_imprint_helpers_match_scipy_and_numpy():
+    """The imprint's dilation and peak percentile are ``ndimage.binary_dilation`` and
+    ``numpy.percentile``, written out for speed: the same results."""
+    from scipy import ndimage
+
+    from tactile_bt.tree.behaviours.contact_points import _dilated, _percentile
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        mask = rng.random((int(rng.integers(1, 18)), int(rng.integers(1, 18)))) < rng.random()
+        np.testing.assert_array_equal(_dilated(mask), ndimage.binary_dilation(mask))
+        values = rng.exponential(size=int(rng.integers(1, 257))) * 10.0 ** rng.uniform(-3, 1)
+        if rng.random() < 0.3:
+            values = np.round(values, 1)  # ties
+        for q in (0, 10, 50, 90, 99.5, 100):
+            assert_allclose(_percentile(values.copy(), q), np.percentile(values, q), rtol=1e-12, atol=0)

@@ -243,34 +243,35 @@ class ServoCommand:
         self.linear_limit = float(linear_limit)
         self.angular_limit = float(angular_limit)
         self._sum = [0.0] * 6
-        self._parts: dict[str, list] = {}
+        self._added: list[tuple[str, tuple]] = []  # (source, twist) in the order added
         self.errors: dict[str, float] = {}
 
     def clear(self) -> None:
         """Start a new cycle: no parts, no errors."""
         self._sum = [0.0] * 6
-        self._parts.clear()
+        self._added.clear()
         self.errors.clear()
 
     def add(self, source: str, twist) -> None:
         """Add a partial sensor-frame twist (6 numbers, m/s and rad/s) from the leaf ``source``."""
-        values = twist.tolist() if isinstance(twist, np.ndarray) else list(twist)
-        if len(values) != 6 or not math.isfinite(sum(values)):
+        values = tuple(twist.tolist() if isinstance(twist, np.ndarray) else twist)
+        if len(values) != 6:
+            raise ValueError(f"{source}: a twist must be 6 finite numbers, got {twist!r}")
+        v0, v1, v2, v3, v4, v5 = values
+        if not math.isfinite(v0 + v1 + v2 + v3 + v4 + v5):
             raise ValueError(f"{source}: a twist must be 6 finite numbers, got {twist!r}")
         total = self._sum
-        total[0] += values[0]
-        total[1] += values[1]
-        total[2] += values[2]
-        total[3] += values[3]
-        total[4] += values[4]
-        total[5] += values[5]
-        previous = self._parts.get(source)
-        self._parts[source] = values if previous is None else [p + v for p, v in zip(previous, values)]
+        self._sum = [total[0] + v0, total[1] + v1, total[2] + v2, total[3] + v3, total[4] + v4, total[5] + v5]
+        self._added.append((source, values))
 
     @property
     def parts(self) -> dict[str, np.ndarray]:
         """The twist each source added this cycle, by source name."""
-        return {k: np.array(v, dtype=float) for k, v in self._parts.items()}
+        parts: dict[str, list] = {}
+        for source, values in self._added:
+            previous = parts.get(source)
+            parts[source] = list(values) if previous is None else [p + v for p, v in zip(previous, values)]
+        return {k: np.array(v, dtype=float) for k, v in parts.items()}
 
     def report_error(self, feature: str, value: float) -> None:
         """Record the error of a controlled feature this cycle (for logs and metrics)."""

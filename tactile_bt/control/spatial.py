@@ -70,14 +70,14 @@ def adjoint(T: np.ndarray) -> np.ndarray:
 def body_to_spatial(T_gs: np.ndarray, twist_s: np.ndarray) -> np.ndarray:
     """Map a sensor-frame (body) twist to the base-frame (spatial) twist: ``V_g = Ad(T_gs) V_s``.
 
-    Equivalent to ``adjoint(T_gs) @ twist_s`` without building the 6x6 matrix.
+    Equivalent to ``adjoint(T_gs) @ twist_s`` without building the 6x6 matrix; it runs once per
+    control cycle, so the cross product is taken on Python floats.
     """
     R = T_gs[:3, :3]
-    w = R @ twist_s[3:]
-    v = R @ twist_s[:3]
-    px, py, pz = T_gs[:3, 3]
-    wx, wy, wz = w
-    return np.array((v[0] + py * wz - pz * wy, v[1] + pz * wx - px * wz, v[2] + px * wy - py * wx, wx, wy, wz))
+    wx, wy, wz = (R @ twist_s[3:]).tolist()
+    vx, vy, vz = (R @ twist_s[:3]).tolist()
+    px, py, pz = T_gs[:3, 3].tolist()
+    return np.array((vx + py * wz - pz * wy, vy + pz * wx - px * wz, vz + px * wy - py * wx, wx, wy, wz))
 
 
 def exp_twist(twist: np.ndarray, dt: float) -> np.ndarray:

@@ -41,6 +41,12 @@ class MissionLog:
     def __init__(self, n: int) -> None:
         self.n = 0
         self.scalars = {k: np.full(n, np.nan) for k in self.SCALARS}
+        # The columns that every cycle writes, bound once (write() runs every control cycle).
+        s = self.scalars
+        self._columns = tuple(s[k] for k in ("t", "in_contact", "force_n", "area", "pressure_raw_pa", "pressure_pa",
+                                             "cop_x_px", "cop_y_px", "orientation_raw_rad", "orientation_rad",
+                                             "penetration_m"))
+        self._error_columns = {e: s["error_" + e] for e in _ERRORS}
         self.twist = np.zeros((n, 6))
         self.position = np.zeros((n, 3))
         self.rotation = np.zeros((n, 3, 3))
@@ -72,19 +78,21 @@ class MissionLog:
                penetration: float = float("nan")) -> None:
         """Store cycle ``k`` (mission time ``t``) of a control loop."""
         f_raw, f = loop.features_raw, loop.features
-        s = self.scalars
-        s["t"][k] = t
-        s["in_contact"][k] = f_raw.in_contact
-        s["force_n"][k] = f_raw.force
-        s["area"][k] = f_raw.area
-        s["pressure_raw_pa"][k] = f_raw.pressure
-        s["pressure_pa"][k] = f.pressure
-        s["cop_x_px"][k], s["cop_y_px"][k] = f_raw.cop_px.tolist()
-        s["orientation_raw_rad"][k] = f_raw.orientation
-        s["orientation_rad"][k] = f.orientation
-        s["penetration_m"][k] = penetration
+        t_, in_contact, force, area, pressure_raw, pressure, cop_x, cop_y, orientation_raw, orientation, \
+            penetration_ = self._columns
+        t_[k] = t
+        in_contact[k] = f_raw.in_contact
+        force[k] = f_raw.force
+        area[k] = f_raw.area
+        pressure_raw[k] = f_raw.pressure
+        pressure[k] = f.pressure
+        cop_x[k], cop_y[k] = f_raw.cop_px.tolist()
+        orientation_raw[k] = f_raw.orientation
+        orientation[k] = f.orientation
+        penetration_[k] = penetration
+        columns = self._error_columns
         for name, value in loop.command.errors.items():
-            s["error_" + name][k] = value
+            columns[name][k] = value
         self.twist[k] = twist_s
         self.position[k] = pose[:3, 3]
         self.rotation[k] = pose[:3, :3]

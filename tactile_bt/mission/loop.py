@@ -22,6 +22,7 @@ from tactile_bt.perception.smoothing import FeatureSmoother
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import TactileBehaviour
 from tactile_bt.tree.blackboard import cycle_writer, write_cycle
+from tactile_bt.tree.ticking import debug_logging, tick_node
 
 __all__ = ["ControlLoop", "tick", "root_outcome", "failure_reason", "success_reason"]
 
@@ -110,12 +111,16 @@ class ControlLoop:
 
 def tick(tree: py_trees.trees.BehaviourTree) -> None:
     """``tree.tick()``; without visitors or tick handlers, the root's tick alone (``tick()`` walks
-    the whole tree once more per tick to show it to its visitors, even when it has none)."""
+    the whole tree once more per tick to show it to its visitors, even when it has none), and
+    with py_trees' debug log off a direct one (:mod:`tactile_bt.tree.ticking`)."""
     if tree.visitors or tree.pre_tick_handlers or tree.post_tick_handlers:
         tree.tick()
         return
-    for _ in tree.root.tick():
-        pass
+    if debug_logging():
+        for _ in tree.root.tick():
+            pass
+    else:
+        tick_node(tree.root)
     tree.count += 1
 
 

@@ -68,7 +68,7 @@ from tactile_bt.errors import ParameterTypeError, ParameterValueError, TreeError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
 from tactile_bt.tree.blackboard import NAMESPACE
-from tactile_bt.tree.composites import Parallel
+from tactile_bt.tree.composites import Parallel, Selector, Sequence
 from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
 from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
                                         normalise_key, parameters_of, uses_pad_units)
@@ -374,7 +374,7 @@ class _Builder(SubtreeExpansion):
                                                         "success_on_all", "parallel.synchronise")
             composite = Parallel(name=name, policy=POLICIES[policy](sync))
         else:
-            cls = py_trees.composites.Sequence if type_name == "sequence" else py_trees.composites.Selector
+            cls = Sequence if type_name == "sequence" else Selector
             composite = cls(name=name, memory=values.get("memory", True))
         composite.add_children(children)
         if not self.survey:

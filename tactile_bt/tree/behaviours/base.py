@@ -17,18 +17,17 @@ import math
 import numpy as np
 import py_trees
 from py_trees.common import Access, Status
-from py_trees.logging import Level
 
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
 from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
+from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
+from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
 
-__all__ = ["TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale"]
+__all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale", "norm"]
 
 _ZERO_TWIST = (0.0,) * 6
-#: The statuses a behaviour may return (py_trees checks against ``list(Status)`` each tick).
-_STATUSES = tuple(Status)
 _RUNNING = Status.RUNNING
 
 #: Name of the logged error of each feature component (units: px of the pad, Pa, rad).
@@ -40,13 +39,79 @@ METRIC_OF_COMPONENT = {
 }
 
 
+def _errors(components: tuple[int, ...], active: list[int]):
+    """The per-cycle error function of a servo leaf: ``(features in contact, targets) -> Δf`` of
+    its ``components`` (:func:`~tactile_bt.control.servo.feature_error`'s formulas), only the
+    ``active`` ones computed, NaN for the others (their PID loops get NaN anyway)."""
+    n = len(components)
+    if len(active) == n:  # every component controlled: one formula for each usual leaf
+        if components == (2,):
+            return lambda f, targets: [targets[1] - f.pressure]
+        if components == (3,):
+            return lambda f, targets: [wrap_half_pi(targets[2] - f.orientation)]
+        if components == (0, 1):
+            def cop_error(f, targets):
+                x, y = f.cop_xy
+                cop = targets[0]
+                return [cop[0] - x, cop[1] - y]
+            return cop_error
+    wanted = {components[j] for j in active}
+
+    def error(f, targets):
+        full = [math.nan] * 4
+        cop, pressure, alpha = targets
+        if 0 in wanted or 1 in wanted:
+            x, y = f.cop_xy
+            full[0], full[1] = cop[0] - x, cop[1] - y
+        if 2 in wanted:
+            full[2] = pressure - f.pressure
+        if 3 in wanted:
+            full[3] = wrap_half_pi(alpha - f.orientation)
+        out = [math.nan] * n
+        for j in active:
+            out[j] = full[components[j]]
+        return out
+    return error
+
+
+def norm(v: np.ndarray) -> float:
+    """``float(numpy.linalg.norm(v))`` of a float vector: the same product and square root,
+    without that function's dispatch (a few µs, in leaves that run every cycle)."""
+    return math.sqrt(v.dot(v))
+
+
 def metric_scale(component: int, pad: PadGeometry) -> float:
     """Factor from a component's error in SI units (m, Pa, rad) to its logged unit: tactels of
     ``pad`` (``1 / pad.pitch``) for the COP components, 1 for pressure and orientation."""
     return 1.0 / pad.pitch if component in (0, 1) else 1.0
 
 
-class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
+class LazyFeedback:
+    """A py_trees node whose ``feedback_message`` is formatted only when somebody reads it.
+
+    Formatting a message every control cycle would cost more than most leaves' work, so a node
+    that runs sets ``self._feedback = None`` and overrides :meth:`describe`; reading
+    ``feedback_message`` then returns ``describe()`` of the node's current state. Assigning
+    ``feedback_message`` (an end, a fixed word) stores that message as py_trees does.
+    """
+
+    _feedback: str | None = ""
+
+    @property
+    def feedback_message(self) -> str:
+        message = self._feedback
+        return self.describe() if message is None else message
+
+    @feedback_message.setter
+    def feedback_message(self, message: str) -> None:
+        self._feedback = message
+
+    def describe(self) -> str:
+        """The message of the node's current state, while no fixed message is set."""
+        return ""
+
+
+class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behaviour):
     """A py_trees leaf with read access to the cycle data of the ``/tactile`` blackboard.
 
     Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
@@ -105,19 +170,22 @@ class TactileBehaviour(BoundedParameters, py_trees.behaviour.Behaviour):
         do no work: a debug message formatted while py_trees' debug log is off, and the list of
         all statuses built to check the one ``update`` returned. Same calls, same order, same
         result; with py_trees' debug log on, py_trees' own ``tick`` runs."""
-        if py_trees.logging.level < Level.INFO:
+        if debug_logging():
             yield from super().tick()
             return
+        self.tick_direct()
+        yield self
+
+    def tick_direct(self) -> None:
+        """:meth:`tick` without the generator (:mod:`tactile_bt.tree.ticking`)."""
         if self.status != _RUNNING:
             self.initialise()
         new_status = self.update()
-        if new_status not in _STATUSES:
-            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
-            new_status = Status.INVALID
+        if new_status not in STATUSES:
+            new_status = checked(self, new_status)
         if new_status != _RUNNING:
             self.stop(new_status)
         self.status = new_status
-        yield self
 
     def set_parameter(self, name: str, value) -> None:
         """Change parameter ``name`` (already checked against its type) between runs.
@@ -203,14 +271,16 @@ class ServoLeaf(TactileBehaviour):
         # Components with no row in P·J⁻¹ are not controlled (e.g. a tactile_servo whose P
         # leaves them out): they neither gate the leaf on NaN nor appear in the error log.
         self._active = [j for j in range(n) if self._rows_of[j]]
-        # Their PID loops would run for nothing: the PID sees NaN there (state held, u = 0).
-        self._idle = [j for j in range(n) if not self._rows_of[j]]
+        # Their errors are computed only when read (last_error); their PID loops would run for
+        # nothing and see NaN (state held, u = 0).
+        self._error = _errors(tuple(self.components), self._active)
+        self._no_contact = [math.nan] * n
+        self._inputs = None  # features and targets of the last tick, for last_error
         self._set_pad(PadGeometry())  # the mission's pad replaces it when the leaf starts
         self.converge = bool(converge)
         self.set_parameter("band", band)
         self.set_parameter("dwell_s", dwell_s)
         self._inside_since: float | None = None
-        self.last_error = [math.nan] * n
         self._last_twist = _ZERO_TWIST
 
     def _make_pid(self, kp, ki, kd, output_limit) -> PID:
@@ -247,19 +317,18 @@ class ServoLeaf(TactileBehaviour):
         """The twist part ``P_i · J⁻¹ · u`` this leaf added in its last tick (sensor frame)."""
         return np.array(self._last_twist, dtype=float)
 
-    # Formatting a message every 4 ms cycle would cost more than the control law, so the
-    # message of a tracking leaf is built only when somebody reads it.
     @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return self._format_error()
-        return self._feedback
+    def last_error(self) -> list[float]:
+        """Δf of every component at the last tick (m, Pa, rad; NaN before the first tick or
+        where undefined), computed when read."""
+        if self._inputs is None:
+            return [math.nan] * len(self.components)
+        f, (cop, pressure, alpha) = self._inputs
+        full = feature_error(f, cop, pressure, alpha)
+        return [full[c] for c in self.components]
 
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
-
-    def _format_error(self) -> str:
+    def describe(self) -> str:
+        """The errors of the last tick (measured − target, logged units)."""
         return "error " + ", ".join(
             f"{metric}={-e * scale:+.3g}" for (metric, scale), e in zip(self._metrics, self.last_error)
         )
@@ -278,10 +347,10 @@ class ServoLeaf(TactileBehaviour):
 
     def update(self) -> Status:
         f = read(FEATURES)
-        cop, pressure, alpha = self.targets()
-        full = feature_error(f, cop, pressure, alpha)
-        error = [full[c] for c in self.components]
-        self.last_error = error
+        targets = self.targets()
+        self._inputs = (f, targets)
+        # only the controlled components: the others are computed when last_error is read
+        error = self._error(f, targets) if f.in_contact else self._no_contact
         command = self.command
         errors = command.errors
         finite = True
@@ -295,19 +364,13 @@ class ServoLeaf(TactileBehaviour):
             self._inside_since = None
             self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
             return _RUNNING
-        if self._idle:
-            controlled = list(error)
-            for j in self._idle:
-                controlled[j] = math.nan
-            u = self.pid.update(controlled, self.dt)
-        else:
-            u = self.pid.update(error, self.dt)
+        u = self.pid.update(error, self.dt)  # NaN for the idle components: no command there
         twist = [0.0] * 6
         for j, r, coefficient in self._terms:
             twist[r] += coefficient * u[j]
         self._last_twist = twist
         command.add(self.name, twist)
-        self._feedback = None  # formatted on demand from last_error (see feedback_message)
+        self._feedback = None  # described on demand from last_error
         if self.converge:
             band = self.band
             inside = True
@@ -316,11 +379,11 @@ class ServoLeaf(TactileBehaviour):
                     inside = False
                     break
             if inside:
-                now = self.now
+                now = read(TIME)
                 if self._inside_since is None:
                     self._inside_since = now
                 if now - self._inside_since >= self.dwell_s:
-                    self._feedback = self._format_error() + " (converged)"
+                    self._feedback = self.describe() + " (converged)"
                     return Status.SUCCESS
             else:
                 self._inside_since = None

@@ -32,7 +32,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import write
+from tactile_bt.tree.blackboard import FEATURES_RAW, TIME, read, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, between, normalise_key
 
 __all__ = ["CableEnd", "line_reach"]
@@ -52,27 +52,38 @@ def _along(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad
     return (x - centre_px[0]) * math.cos(direction_rad) + (y - centre_px[1]) * math.sin(direction_rad)
 
 
+@functools.lru_cache(maxsize=16)
+def _moment_basis(shape: tuple[int, int]) -> np.ndarray:
+    """Rows 1, x, y, x², y², x·y over the tactels of a ``shape`` pad (x = column, y = row): one
+    product with a mask gives every sum :func:`_shape` needs."""
+    x, y = _grid(shape)
+    return np.stack((np.ones_like(x), x, y, x * x, y * y, x * y))
+
+
 def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: float) -> float:
     """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
     ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
     plus half a tactel (a tactel's far edge). ``-inf`` for an empty mask."""
-    along = _along(mask.shape, tuple(centre_px), float(direction_rad))[mask.ravel()]
-    return float(along.max()) + 0.5 if along.size else -math.inf
+    return _reach(_along(mask.shape, tuple(centre_px), float(direction_rad)), mask)
+
+
+def _reach(along: np.ndarray, mask: np.ndarray) -> float:
+    """:func:`line_reach` from the tactels' positions ``along`` the direction (flattened)."""
+    ahead = along[mask.ravel()]
+    return float(ahead.max()) + 0.5 if ahead.size else -math.inf
 
 
 def _shape(mask: np.ndarray) -> tuple[float, float]:
     """Anisotropy ``(l1 - l2) / (l1 + l2)`` (1 for a line, 0 for a disc) and axis angle (rad,
-    from +x towards +y) of the tactel positions of ``mask`` (second moments by dot products: this
-    runs every control cycle)."""
-    m = mask.ravel().astype(float)
-    n = float(m.sum())
+    from +x towards +y) of the tactel positions of ``mask`` (second moments by one matrix
+    product, exact sums of small integers: this runs every control cycle)."""
+    n, sum_x, sum_y, sum_xx, sum_yy, sum_xy = (_moment_basis(mask.shape) @ mask.ravel().astype(float)).tolist()
     if n < 3:
         return 1.0, math.nan
-    x, y = _grid(mask.shape)
-    mx, my = float(m @ x) / n, float(m @ y) / n
-    sxx = float(m @ (x * x)) / n - mx * mx
-    syy = float(m @ (y * y)) / n - my * my
-    sxy = float(m @ (x * y)) / n - mx * my
+    mx, my = sum_x / n, sum_y / n
+    sxx = sum_xx / n - mx * mx
+    syy = sum_yy / n - my * my
+    sxy = sum_xy / n - mx * my
     total = sxx + syy
     if total <= 0:
         return 0.0, math.nan
@@ -139,11 +150,14 @@ class CableEnd(TactileBehaviour):
         self._writer = self.attach_blackboard_client(name=f"{name}/on_line")
         self._writer.register_key(key=self.on_line_key, access=Access.WRITE)
         self._window: deque[tuple[float, str]] = deque()
+        self._gone = 0  # verdicts in the window that say the line is gone
         self._lost_since: float | None = None
         self.reach_px = math.nan
+        self._along_of = (None, math.nan, None)  # (pad, direction, tactels along it): judge's cache
 
     def initialise(self) -> None:
         self._window.clear()
+        self._gone = 0
         self._lost_since = None
         self.reach_px = math.nan
         self.feedback_message = ""
@@ -160,20 +174,27 @@ class CableEnd(TactileBehaviour):
         if abs(wrap_half_pi(axis - self.direction_rad)) > self.max_turn_rad:
             return "turned"
         cx, cy = pad.centre_px
-        dx, dy = f.cop_px[0] - cx, f.cop_px[1] - cy
+        px, py = f.cop_px.tolist()
+        dx, dy = px - cx, py - cy
         if abs(dx * math.sin(axis) - dy * math.cos(axis)) * pad.pitch > self.max_offset_m:
             return "offset"
-        self.reach_px = line_reach(f.mask, pad.centre_px, self.direction_rad)
+        cached_pad, direction, along = self._along_of
+        if pad is not cached_pad or direction != self.direction_rad:
+            direction = self.direction_rad
+            along = _along(pad.shape, pad.centre_px, float(direction))
+            self._along_of = (pad, direction, along)
+        self.reach_px = _reach(along, f.mask)
         if self.reach_px * pad.pitch < self.reach_m:
             return "short"
         return ""
 
     def update(self) -> Status:
-        f = self.features_raw
-        now = self.now
+        f = read(FEATURES_RAW)
+        now = read(TIME)
         if not f.in_contact:
             write(self.on_line_key, False)
             self._window.clear()
+            self._gone = 0
             if self._lost_since is None:
                 self._lost_since = now
             if now - self._lost_since >= self.lost_s:
@@ -186,14 +207,24 @@ class CableEnd(TactileBehaviour):
         write(self.on_line_key, not verdict)
         window = self._window
         window.append((now, verdict))
+        if verdict:
+            self._gone += 1
         while window[0][0] < now - self.dwell_s - 1e-9:
-            window.popleft()
-        gone = [v for _, v in window if v]
-        if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * len(gone) <= len(window):
-            self.feedback_message = f"on the line, reaching {self.reach_px:.1f} px ahead" if not verdict else verdict
+            if window.popleft()[1]:
+                self._gone -= 1
+        if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * self._gone <= len(window):
+            if verdict:
+                self.feedback_message = verdict
+            else:
+                self._feedback = None  # described when read
             return Status.RUNNING
+        gone = [v for _, v in window if v]
         self.feedback_message = "end of cable: " + _REASONS[max(set(gone), key=gone.count)]
         return Status.SUCCESS
+
+    def describe(self) -> str:
+        """On the line: how far it reaches ahead of the pad centre."""
+        return f"on the line, reaching {self.reach_px:.1f} px ahead"
 
 
 #: What each verdict of :meth:`CableEnd.judge` means at the end of a follow.

@@ -14,16 +14,17 @@ from typing import Literal
 
 import numpy as np
 from py_trees.common import Access, Status
-from scipy import ndimage
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 from tactile_bt.perception.features import local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["RecordContacts", "imprint_points"]
+
+_SQRT2 = math.sqrt(2.0)
 
 
 @functools.lru_cache(maxsize=8)
@@ -50,6 +51,32 @@ def _imprint_grid(pad: PadGeometry, step: float):
     X, Y = np.meshgrid(x, y)  # (len(y), len(x)): rows of samples along y
     xy = np.column_stack((X.ravel(), Y.ravel(), np.zeros(X.size)))
     return A_r, A_c, xy
+
+
+def _dilated(mask: np.ndarray) -> np.ndarray:
+    """``mask`` grown by one tactel along rows and columns: ``scipy.ndimage.binary_dilation``
+    with its default cross-shaped element and nothing beyond the border, in four slices."""
+    region = mask.copy()
+    region[1:] |= mask[:-1]
+    region[:-1] |= mask[1:]
+    region[:, 1:] |= mask[:, :-1]
+    region[:, :-1] |= mask[:, 1:]
+    return region
+
+
+def _percentile(values: np.ndarray, q: float) -> float:
+    """``numpy.percentile(values, q)`` of a non-empty 1-D array of finite floats (its default
+    linear method, the same operations in the same order), without its generic machinery."""
+    n = values.size
+    virtual = (n - 1) * (q / 100)
+    if virtual >= n - 1:
+        return float(values.max())
+    below = math.floor(virtual)
+    ordered = np.partition(values, (below, below + 1))
+    a, b = float(ordered[below]), float(ordered[below + 1])
+    gamma = virtual - below
+    diff = b - a
+    return b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma
 
 
 def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tuple[np.ndarray, np.ndarray]:
@@ -84,9 +111,8 @@ def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tupl
     mask = features.mask
     pad = features.pad
     # only the largest region (and its immediate fringe): other blobs are not this contact
-    region = ndimage.binary_dilation(mask)
-    img = np.where(region, image, 0.0)
-    peak = float(np.percentile(image[mask], 90))
+    img = np.where(_dilated(mask), image, 0.0)
+    peak = _percentile(image[mask], 90)
     if not peak > 0.0:
         return np.zeros((0, 3)), np.zeros(0)
     A_r, A_c, xy = _imprint_grid(pad, float(step_m))
@@ -166,7 +192,7 @@ class RecordContacts(TactileBehaviour):
         self._setup = self.attach_blackboard_client(name=f"{name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self._floor = -math.inf  # points at or below this z (m) are the table's
-        self._last: np.ndarray | None = None
+        self._last: list[float] | None = None  # the last recorded contact point (m, world)
         self._last_rotation: np.ndarray | None = None
         self._in_contact = False
 
@@ -180,18 +206,11 @@ class RecordContacts(TactileBehaviour):
         numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m", "table_margin_m")
         super().set_parameter(name, float(value) if name in numeric else value)
 
-    # Formatted only when somebody reads it (not every cycle).
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            contacts = getattr(self, "contacts", None)
-            n = len(contacts) if contacts is not None else 0
-            return f"{n} contacts" + ("" if self._in_contact else ", not in contact")
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """Samples in the cloud, and whether the pad is in contact."""
+        contacts = getattr(self, "contacts", None)
+        n = len(contacts) if contacts is not None else 0
+        return f"{n} contacts" + ("" if self._in_contact else ", not in contact")
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -205,52 +224,65 @@ class RecordContacts(TactileBehaviour):
         self._floor = table_z + self.table_margin_m if self.table_margin_m > 0 and math.isfinite(table_z) else -math.inf
 
     def update(self) -> Status:
-        f = self.features_raw
-        cloud = self.contacts
+        # Runs every cycle: plain floats where numpy would only add call overhead; the numpy
+        # products stay as they were (BLAS rounds them its own way).
+        f = read(FEATURES_RAW)
         self._feedback = None
         if not f.in_contact:
             self._in_contact = False
             return Status.RUNNING
         self._in_contact = True
         if self.only_when and not read_or(self.only_when, False):
-            self._feedback = f"{len(cloud)} contacts, not recording ({self.only_when} is false)"
+            self._feedback = f"{len(self.contacts)} contacts, not recording ({self.only_when} is false)"
             return Status.RUNNING
-        T = self.pose
+        T = read(POSE)
         R = T[:3, :3]
         if self.point == "local":
             if f.orientation != f.orientation:  # no line direction this cycle: the COP lies on the chord
-                self._feedback = f"{len(cloud)} contacts, not recording (no line direction)"
+                self._feedback = f"{len(self.contacts)} contacts, not recording (no line direction)"
                 return Status.RUNNING
-            cop = f.pad.px_to_m(local_contact_point(f))
+            x, y = f.pad.xy_px_to_m(*local_contact_point(f).tolist())
         else:
-            cop = f.cop
-        point = R @ (cop[0], cop[1], 0.0) + T[:3, 3]
-        normal = -T[:3, 2]
+            x, y = f.cop_xy
+        point = R @ (x, y, 0.0) + T[:3, 3]
+        p = point.tolist()
+        last = self._last
         if self.point == "region":
-            if self._last is not None and self.min_spacing_m > 0:
-                moved = math.sqrt(float(np.sum((point - self._last) ** 2)))
-                # a turn of the pad by θ rad moves its border by about half its width times θ
-                moved += f.pad.half_width_m * float(np.linalg.norm(R - self._last_rotation)) / math.sqrt(2.0)
+            if last is not None and self.min_spacing_m > 0:
+                d0, d1, d2 = p[0] - last[0], p[1] - last[1], p[2] - last[2]
+                moved = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
                 if moved < self.min_spacing_m:
-                    return Status.RUNNING
-            local, pressure = imprint_points(f, self.region_level, self.region_step_m)
-            world = local @ R.T + T[:3, 3]
-            if self._floor > -math.inf and len(world):  # never the table's contacts
-                above = world[:, 2] > self._floor
-                world, pressure = world[above], pressure[above]
-            if self.voxel_m > 0 and len(world):
-                keep = cloud.fresh(world, self.voxel_m)
-                world, pressure = world[keep], pressure[keep]
-            cloud.extend(world, normal, pressure, self.now)
-            self._last, self._last_rotation = point, R.copy()
+                    # a turn of the pad by θ rad moves its border by about half its width times θ
+                    turn = (R - self._last_rotation).ravel()
+                    moved += f.pad.half_width_m * math.sqrt(turn.dot(turn)) / _SQRT2
+                    if moved < self.min_spacing_m:
+                        return Status.RUNNING
+            self._record_region(f, T)
+            self._last, self._last_rotation = p, R.copy()
             return Status.RUNNING
-        if point[2] <= self._floor:  # a contact with the table, not the object
+        if p[2] <= self._floor:  # a contact with the table, not the object
             return Status.RUNNING
-        if self._last is not None and self.min_spacing_m > 0:
-            if np.sum((point - self._last) ** 2) < self.min_spacing_m**2:
+        if last is not None and self.min_spacing_m > 0:
+            d0, d1, d2 = p[0] - last[0], p[1] - last[1], p[2] - last[2]
+            if d0 * d0 + d1 * d1 + d2 * d2 < self.min_spacing_m**2:
                 return Status.RUNNING
+        cloud = self.contacts
         if self.voxel_m > 0 and not cloud.fresh(point[None, :], self.voxel_m)[0]:
             return Status.RUNNING
-        cloud.append(point.tolist(), normal.tolist(), f.pressure, self.now)
-        self._last = point
+        n0, n1, n2 = T[:3, 2].tolist()
+        cloud.append(p, (-n0, -n1, -n2), f.pressure, read(TIME))
+        self._last = p
         return Status.RUNNING
+
+    def _record_region(self, f, T: np.ndarray) -> None:
+        """Add the imprint of ``f`` with the pad at ``T`` to the cloud."""
+        local, pressure = imprint_points(f, self.region_level, self.region_step_m)
+        world = local @ T[:3, :3].T + T[:3, 3]
+        if self._floor > -math.inf and len(world):  # never the table's contacts
+            above = world[:, 2] > self._floor
+            world, pressure = world[above], pressure[above]
+        cloud = self.contacts
+        if self.voxel_m > 0 and len(world):
+            keep = cloud.fresh(world, self.voxel_m)
+            world, pressure = world[keep], pressure[keep]
+        cloud.extend(world, -T[:3, 2], pressure, read(TIME))

@@ -3,7 +3,10 @@
 They are py_trees' own :mod:`py_trees.decorators` (``Retry``, ``Repeat``, ``Inverter``,
 ``OneShot``) with the child first and keyword parameters that carry types and defaults, so the
 loader can check them like the leaves. None of them reads wall time; for a time limit use
-:class:`~tactile_bt.tree.behaviours.guards.MissionTimeout` (mission clock).
+:class:`~tactile_bt.tree.behaviours.guards.MissionTimeout` (mission clock). They tick as
+py_trees' decorators do, without a debug message formatted every tick and with a direct tick
+(:mod:`tactile_bt.tree.ticking`); ``repeat``, ``retry`` and ``inverter`` format their message
+of a running child only when it is read.
 
 Layer: tree.
 """
@@ -13,9 +16,11 @@ from __future__ import annotations
 from typing import Literal
 
 import py_trees
-from py_trees.common import OneShotPolicy
+from py_trees.common import OneShotPolicy, Status
 
+from tactile_bt.tree.behaviours.base import LazyFeedback
 from tactile_bt.tree.parameters import Bound, BoundedParameters
+from tactile_bt.tree.ticking import DirectDecorator, debug_logging
 
 __all__ = ["Retry", "Repeat", "Inverter", "OneShot", "ONESHOT_POLICIES"]
 
@@ -26,7 +31,7 @@ ONESHOT_POLICIES = {
 }
 
 
-class Retry(BoundedParameters, py_trees.decorators.Retry):
+class Retry(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Retry):
     """Restart a failing child: a child FAILURE becomes RUNNING (and the child starts again on
     the next tick) until it has failed ``num_failures`` times; then FAILURE. SUCCESS passes.
 
@@ -53,8 +58,18 @@ class Retry(BoundedParameters, py_trees.decorators.Retry):
             raise ValueError(f"{self.name}: {name} must be an integer >= 1, got {value}")
         self.num_failures = int(value)
 
+    def update(self) -> Status:
+        if self.decorated.status == Status.RUNNING:
+            self._feedback = None  # described when read
+            return Status.RUNNING
+        return super().update()
 
-class Repeat(BoundedParameters, py_trees.decorators.Repeat):
+    def describe(self) -> str:
+        """py_trees' message of a running child."""
+        return f"running [status: {self.failures} failure from {self.num_failures}]"
+
+
+class Repeat(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Repeat):
     """Run a child again after each SUCCESS until it has succeeded ``num_success`` times; then
     SUCCESS. A child FAILURE is FAILURE at once.
 
@@ -81,8 +96,19 @@ class Repeat(BoundedParameters, py_trees.decorators.Repeat):
             raise ValueError(f"{self.name}: {name} must be an integer >= 1 or -1, got {value}")
         self.num_success = int(value)
 
+    def update(self) -> Status:
+        status = self.decorated.status
+        if status != Status.FAILURE and status != Status.SUCCESS:
+            self._feedback = None  # described when read
+            return Status.RUNNING
+        return super().update()
 
-class Inverter(py_trees.decorators.Inverter):
+    def describe(self) -> str:
+        """py_trees' message of a running child."""
+        return f"running [status: {self.success} success from {self.num_success}]"
+
+
+class Inverter(LazyFeedback, DirectDecorator, py_trees.decorators.Inverter):
     """Swap the child's SUCCESS and FAILURE; RUNNING passes through.
 
     Parameters
@@ -98,8 +124,19 @@ class Inverter(py_trees.decorators.Inverter):
     def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "inverter") -> None:
         super().__init__(name=name, child=child)
 
+    def update(self) -> Status:
+        status = self.decorated.status
+        if status == Status.SUCCESS or status == Status.FAILURE:
+            return super().update()
+        self._feedback = None  # the child's message, when read
+        return status
 
-class OneShot(py_trees.decorators.OneShot):
+    def describe(self) -> str:
+        """The message of a running child: its own."""
+        return self.decorated.feedback_message
+
+
+class OneShot(DirectDecorator, py_trees.decorators.OneShot):
     """Run the child to completion once; afterwards return that final status without ticking
     the child again (e.g. a calibration touch at the start of a mission that may be re-entered).
 
@@ -122,3 +159,24 @@ class OneShot(py_trees.decorators.OneShot):
             raise ValueError(f"{name}: policy must be one of {', '.join(ONESHOT_POLICIES)}, got {policy!r}")
         super().__init__(name=name, child=child, policy=ONESHOT_POLICIES[policy])
         self.policy_name = policy
+
+    def tick(self):
+        if debug_logging():
+            yield from super().tick()
+        elif self.final_status:
+            self._tick_alone()
+            yield self
+        else:
+            yield from DirectDecorator.tick(self)
+
+    def tick_direct(self) -> None:
+        if self.final_status:
+            self._tick_alone()
+        else:
+            DirectDecorator.tick_direct(self)
+
+    def _tick_alone(self) -> None:
+        """Once done, py_trees ticks the oneshot as a leaf: its child is left alone."""
+        if self.status != Status.RUNNING:
+            self.initialise()
+        self._conclude()

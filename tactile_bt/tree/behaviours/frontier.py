@@ -344,16 +344,9 @@ class FrontierGuidance(TactileBehaviour):
         self._cloud = self.bb.contacts
         table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
 
-    # Formatted only when somebody reads it (not every cycle).
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"{self._state}: target {self.attempts}, {self.candidates} frontier cells, {self.blocks} ends"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """State, targets tried, frontier cells and blocked ends."""
+        return f"{self._state}: target {self.attempts}, {self.candidates} frontier cells, {self.blocks} ends"
 
     # -- the map -----------------------------------------------------------------------------
     def _update_map(self, point: np.ndarray) -> None:

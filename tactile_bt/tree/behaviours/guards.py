@@ -10,18 +10,16 @@ from __future__ import annotations
 
 import py_trees
 from py_trees.common import Access, Status
-from py_trees.logging import Level
 
-from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.base import LazyFeedback, TactileBehaviour
 from tactile_bt.tree.blackboard import NAMESPACE, TIME, read
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
+from tactile_bt.tree.ticking import DirectDecorator
 
 __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 
-_STATUSES = tuple(Status)
 
-
-class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
+class MissionTimeout(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Decorator):
     """Run ``child`` for at most ``duration_s`` seconds of mission time, then FAILURE
     (or SUCCESS with ``succeed=True``, for phases that simply last a while). A child that
     finishes in time passes its status through. The clock restarts whenever the decorator
@@ -65,34 +63,9 @@ class MissionTimeout(BoundedParameters, py_trees.decorators.Decorator):
         else:
             raise ValueError(f"{self.name}: {name} is fixed at construction")
 
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"{self._elapsed:.2f} / {self.duration_s:g} s"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
-
-    def tick(self):
-        """py_trees' :meth:`~py_trees.decorators.Decorator.tick` without a debug message
-        formatted while py_trees' debug log is off and without building the list of all statuses
-        every tick (as :meth:`~tactile_bt.tree.behaviours.base.TactileBehaviour.tick`)."""
-        if py_trees.logging.level < Level.INFO:
-            yield from super().tick()
-            return
-        if self.status != Status.RUNNING:
-            self.initialise()
-        yield from self.decorated.tick()
-        new_status = self.update()
-        if new_status not in _STATUSES:
-            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
-            new_status = Status.INVALID
-        if new_status != Status.RUNNING:
-            self.stop(new_status)
-        self.status = new_status
-        yield self
+    def describe(self) -> str:
+        """Mission time used so far and allowed."""
+        return f"{self._elapsed:.2f} / {self.duration_s:g} s"
 
     def initialise(self) -> None:
         self._start = float(read(TIME))
@@ -177,15 +150,9 @@ class ForceLimit(TactileBehaviour):
             raise ValueError(f"{self.name}: limit_n must be positive, got {value}")
         super().set_parameter(name, float(value) if name == "limit_n" else value)
 
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"force {self._force:.2f} N"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """The unsmoothed force of the last tick."""
+        return f"force {self._force:.2f} N"
 
     def update(self) -> Status:
         force = self._force = self.features_raw.force

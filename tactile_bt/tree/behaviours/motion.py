@@ -71,16 +71,9 @@ class Approach(TactileBehaviour):
         self._start = self.now
         self.travelled = 0.0
 
-    # The message of a running approach is formatted only when somebody reads it.
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"approaching, {self.travelled * 1e3:.1f} mm"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """Travel so far while approaching."""
+        return f"approaching, {self.travelled * 1e3:.1f} mm"
 
     def update(self) -> Status:
         f = self.features
@@ -176,16 +169,9 @@ class GuidedSlide(TactileBehaviour):
             return np.asarray(read(self._key), dtype=float)
         return self.twist
 
-    # The message of a sliding leaf is formatted only when somebody reads it.
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"sliding, {self.travelled * 1e3:.1f} mm"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """Travel so far while sliding."""
+        return f"sliding, {self.travelled * 1e3:.1f} mm"
 
     def update(self) -> Status:
         if self.distance_m > 0 and self.travelled >= self.distance_m:

@@ -136,16 +136,9 @@ class TableOffset(TactileBehaviour):
         self._feedback = None
         return Status.RUNNING
 
-    # Formatted only when somebody reads it (not every cycle).
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"target [{self.target[0] * 1e3:.1f}, {self.target[1] * 1e3:.1f}] mm"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """The target written at the last tick (mm)."""
+        return f"target [{self.target[0] * 1e3:.1f}, {self.target[1] * 1e3:.1f}] mm"
 
 
 class _FollowKey:
@@ -320,13 +313,6 @@ class SquareToSlope(TactileBehaviour):
         self._feedback = None
         return Status.RUNNING
 
-    # Formatted only when somebody reads it (not every cycle).
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            return f"error {math.degrees(self.error_rad):+.1f}°, turned {math.degrees(self.turned_rad):+.0f}°"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """Error and turn so far (deg)."""
+        return f"error {math.degrees(self.error_rad):+.1f}°, turned {math.degrees(self.turned_rad):+.0f}°"

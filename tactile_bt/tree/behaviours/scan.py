@@ -21,8 +21,8 @@ from typing import Literal, Sequence
 import numpy as np
 from py_trees.common import Access, Status
 
-from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import write
+from tactile_bt.tree.behaviours.base import TactileBehaviour, norm
+from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["ScanDirection", "StripeEnd", "CoverageStalled", "tangent_guidance"]
@@ -44,13 +44,11 @@ def tangent_guidance(pose: np.ndarray, direction: np.ndarray, speed_mps: float) 
     ``pose`` (``T_gs``) along the world ``direction`` (unit vector): the direction projected onto
     the pad's tangent plane, at ``speed_mps``; zero when the direction is along the pad normal."""
     R = pose[:3, :3]
-    along = R.T @ direction  # the direction in the sensor frame
-    tangential = math.hypot(along[0], along[1])
-    twist = np.zeros(6)
+    x, y, _ = (R.T @ direction).tolist()  # the direction in the sensor frame
+    tangential = math.hypot(x, y)
     if tangential > 1e-3:  # not along the pad normal
-        twist[0] = speed_mps * along[0] / tangential
-        twist[1] = speed_mps * along[1] / tangential
-    return twist
+        return np.array((speed_mps * x / tangential, speed_mps * y / tangential, 0.0, 0.0, 0.0, 0.0))
+    return np.zeros(6)
 
 
 class ScanDirection(TactileBehaviour):
@@ -97,10 +95,10 @@ class ScanDirection(TactileBehaviour):
         return tangent_guidance(pose, self.direction, self.speed_mps)
 
     def initialise(self) -> None:
-        write(self.key, self.guidance(self.pose))
+        write(self.key, self.guidance(read(POSE)))
 
     def update(self) -> Status:
-        self.twist = self.guidance(self.pose)
+        self.twist = self.guidance(read(POSE))
         write(self.key, self.twist)
         return Status.RUNNING
 
@@ -227,10 +225,11 @@ class StripeEnd(TactileBehaviour):
         self._normal0 = None  # pad normal at the start
 
     def update(self) -> Status:
-        T = self.pose
-        now = self.now
+        T = read(POSE)
+        now = read(TIME)
+        normal = T[:3, 2]
         if self.max_tilt_rad > 0:
-            cos_tilt = -float(T[:3, 2] @ self.up)
+            cos_tilt = -float(normal @ self.up)
             if cos_tilt > self._min_cos:
                 self._min_cos = cos_tilt
             if cos_tilt < self._cos_tilt:
@@ -246,18 +245,19 @@ class StripeEnd(TactileBehaviour):
                     return self._end
         if self.max_turn_rad > 0:
             if self._normal0 is None:
-                self._normal0 = T[:3, 2].copy()
-            elif float(T[:3, 2] @ self._normal0) < self._cos_turn:
-                turn = math.degrees(math.acos(max(-1.0, min(1.0, float(T[:3, 2] @ self._normal0)))))
+                self._normal0 = normal.copy()
+            elif float(normal @ self._normal0) < self._cos_turn:
+                turn = math.degrees(math.acos(max(-1.0, min(1.0, float(normal @ self._normal0)))))
                 self.feedback_message = f"turned {turn:.0f}° over an edge (limit {math.degrees(self.max_turn_rad):.0f}°)"
                 self.cause = "turn"
                 return self._end
-        f = self.features_raw
+        f = read(FEATURES_RAW)
         if f.in_contact:
             x, y = f.cop_xy
-            point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+            (r00, r01, _, t0), (r10, r11, _, t1), (r20, r21, _, t2) = T[:3].tolist()
+            point = np.array((r00 * x + r01 * y + t0, r10 * x + r11 * y + t1, r20 * x + r21 * y + t2))
             if self._last is not None:
-                step = float(np.linalg.norm(point - self._last))
+                step = norm(point - self._last)
                 if 0 < self.max_jump_m < step:
                     self.feedback_message = (f"contact jumped {step * 1e3:.0f} mm after "
                                              f"{self.travelled * 1e3:.0f} mm")
@@ -265,7 +265,6 @@ class StripeEnd(TactileBehaviour):
                     return self._end
                 self.travelled += step
             self._last = point
-            normal = T[:3, 2]
             self._history.append((now, point, normal.copy()))
             if self.edge_turn_rad > 0:
                 edge = self._edge(point, normal)
@@ -296,15 +295,18 @@ class StripeEnd(TactileBehaviour):
             while len(history) > 1 and history[1][0] <= now - self.window_s:
                 history.popleft()
             if history and now - self._start >= self.window_s and history[0][0] <= now - self.window_s + 1e-9:
-                moved = float(np.linalg.norm(history[-1][1] - history[0][1]))
+                moved = norm(history[-1][1] - history[0][1])
                 if moved < self.min_travel_m:
                     self.feedback_message = (f"stalled: {moved * 1e3:.1f} mm in {self.window_s:g} s "
                                              f"after {self.travelled * 1e3:.0f} mm")
                     self.cause = "stall"
                     return self._end
-        self.feedback_message = f"{self.travelled * 1e3:.0f} mm"
+        self._feedback = None
         return Status.RUNNING
 
+    def describe(self) -> str:
+        """Travel of the contact point so far."""
+        return f"{self.travelled * 1e3:.0f} mm"
 
     def _edge(self, point: np.ndarray, normal: np.ndarray) -> str:
         """Why the pad is rolling over an edge, judged against a few earlier samples of the
@@ -359,6 +361,7 @@ class CoverageStalled(TactileBehaviour):
         self.set_parameter("min_samples", min_samples)
         self._history: collections.deque = collections.deque()
         self._start = 0.0
+        self._size = 0
 
     def set_parameter(self, name: str, value) -> None:
         if name == "window_s" and not value > 0:
@@ -386,5 +389,10 @@ class CoverageStalled(TactileBehaviour):
             if grown < self.min_growth * size:
                 self.feedback_message = f"coverage stalled: {grown} new samples in {self.window_s:g} s ({size} in all)"
                 return Status.SUCCESS
-        self.feedback_message = f"{size} samples"
+        self._size = size
+        self._feedback = None
         return Status.RUNNING
+
+    def describe(self) -> str:
+        """Samples in the cloud at the last tick."""
+        return f"{self._size} samples"

@@ -130,18 +130,11 @@ class TableClearance(TactileBehaviour):
         self._feedback = None
         return Status.RUNNING
 
-    # Formatted only when somebody reads it (not every cycle).
-    @property
-    def feedback_message(self) -> str:
-        if self._feedback is None:
-            if not math.isfinite(self.table_z_m):
-                return "no table in the set-up"
-            return f"clearance {self.clearance_m * 1e3:.1f} mm"
-        return self._feedback
-
-    @feedback_message.setter
-    def feedback_message(self, message: str) -> None:
-        self._feedback = message
+    def describe(self) -> str:
+        """The clearance of the pad's lowest corner at the last tick."""
+        if not math.isfinite(self.table_z_m):
+            return "no table in the set-up"
+        return f"clearance {self.clearance_m * 1e3:.1f} mm"
 
 
 def write_table_height(table_z_m: float, key: str = TABLE_Z_KEY) -> None:
