@@ -31,6 +31,16 @@ def test_a_warm_cache_starts_no_second_process():
     warmup.finish()  # nothing to wait for
 
 
+def test_the_second_process_builds_the_running_package_not_one_in_the_working_directory(tmp_path):
+    """numba caches per source file: a build of another copy of tactile_bt (say, a clone in the
+    working directory of an installed one) would leave this one's cache empty."""
+    decoy = tmp_path / "tactile_bt"
+    decoy.mkdir()
+    (decoy / "__init__.py").write_text("raise ImportError('the copy in the working directory')\n")
+    done = subprocess.run(warmup._command("arm"), cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+
+
 def test_an_unknown_group_is_named():
     with pytest.raises(ValueError, match="unknown kernel group 'elbow'"):
         warmup.compile_group("elbow")

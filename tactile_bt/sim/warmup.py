@@ -25,6 +25,7 @@ import atexit
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 from numba import types
 
@@ -112,8 +113,8 @@ def start() -> None:
     if is_cached(dispatcher, signature):
         return
     try:
-        _build = subprocess.Popen([sys.executable, "-m", __name__, "arm"], stdin=subprocess.DEVNULL,
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        _build = subprocess.Popen(_command("arm"), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
     except OSError:  # no second process: this one compiles everything, as without start()
         _build = None
     else:
@@ -125,6 +126,16 @@ def _stop() -> None:
     if _build is not None and _build.poll() is None:
         _build.kill()
         _build.wait()
+
+
+def _command(*groups: str) -> list[str]:
+    """The second process: this Python compiling ``groups`` of the tactile_bt this process runs
+    (its directory first on the path: numba's cache is per source file, and ``python -m`` would
+    put the working directory first, where another copy may be)."""
+    root = str(Path(__file__).resolve().parents[2])
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); "
+            "from tactile_bt.sim.warmup import _main; sys.exit(_main(sys.argv[2:]))")
+    return [sys.executable, "-c", code, root, *groups]
 
 
 def finish() -> None:
