@@ -29,9 +29,10 @@ Compilation
 -----------
 ``cache=True`` keeps the machine code on disk (numba's ``NUMBA_CACHE_DIR``), IEEE semantics (no
 ``fastmath``) keep a seed's run the same every time.  The functions that only one entry point
-calls are inlined into it at numba's level (``inline="always"``): numba compiles an entry point
-with its whole call tree, and each separately compiled helper costs compile time again in every
-caller.  Loops run over sizes read from the arrays, and no helper takes a constant argument (each
+calls are small ones inlined into it at numba's level (``inline="always"``: :func:`arm_work`,
+:func:`arm_begin`); the large ones (:func:`rates_fast`, :func:`arm_next`) are called, so that
+:mod:`tactile_bt.sim.warmup` can compile them in a second process on a cold cache (numba's
+inlining retypes the inlined code in every caller, which costs more than a call).  Loops run over sizes read from the arrays, and no helper takes a constant argument (each
 constant would compile another copy).
 
 Layer: robot.
@@ -71,7 +72,7 @@ __all__ = [
 #: Options of every kernel: machine code cached on disk, numpy's error model (1/0 = inf, no
 #: exception checks), IEEE arithmetic (no fastmath).
 OPTS = dict(cache=True, error_model="numpy", nogil=True)
-#: Options of a helper that one entry point calls: inlined at numba's level.
+#: Options of a small helper that one entry point calls: inlined at numba's level.
 INLINE = dict(OPTS, inline="always")
 
 # Packed kinematic model (pack_kinematics): DH d, a, cos(alpha), sin(alpha); base and mount
@@ -512,7 +513,7 @@ def arm_begin(kin, arm, io, out, work):
     return STATUS_EVALUATE
 
 
-@njit(**INLINE)
+@njit(**OPTS)
 def arm_next(contact_status, kin, arm, io, out, work):
     """Continue the step of :func:`arm_begin` with the contact's wrench and stiffness at the
     trial point (``contact_status`` non-zero: the contact model failed).

@@ -315,7 +315,7 @@ def to_local(objf, o, P, m, L):
         L[i, 2] = dx * r02 + dy * r12 + dz * r22
 
 
-@njit(**INLINE)
+@njit(**OPTS)
 def pad_contact(T, data, w, K):
     """Penetration of the pad's samples at pose ``T`` into the objects: the force image and the
     contact wrench and stiffness (for the arm's equilibrium, :func:`tactile_bt.robot.kernels.arm_next`).
@@ -571,8 +571,8 @@ def pad_kernel(mode, T, centres, offsets, corners, padf, objf, grids, near, nnea
         work = arm_work()
         Tt, wt, Kxt = work[7], work[9], work[10]
         status = arm_begin(kin, arm, io, out, work)
-        while status == STATUS_EVALUATE:
-            status = arm_next(pad_contact(Tt, data, wt, Kxt), kin, arm, io, out, work)
+        while status == STATUS_EVALUATE:  # (int64: the signature arm_next is compiled ahead for)
+            status = arm_next(np.int64(pad_contact(Tt, data, wt, Kxt)), kin, arm, io, out, work)
         return float(status)
     if mode == MODE_CONTACT:
         Kx = np.empty((6, 6))

@@ -4,17 +4,22 @@ numba compiles a kernel the first time it is called and keeps the machine code i
 cache (``cache=True``); every later run loads it.  Compiling the simulator's entry point
 (:func:`tactile_bt.sim.kernels.pad_kernel`) compiles its whole call tree in one process, one
 function after the other, and that is most of the first run's wall time.  The call tree splits
-into parts that do not depend on each other: the arm's kernels (:mod:`tactile_bt.robot.kernels`)
-and the pad's contact model (:mod:`tactile_bt.sim.kernels`); perception's
-(:mod:`tactile_bt.perception.kernels`) stand alone.  :func:`start` compiles the arm's and
-perception's in a second process, :func:`finish` the pad's in this one; numba's disk cache
-carries the result over, and the entry point, compiled last, loads its callees from it instead
-of compiling them again.  On two idle cores this takes a quarter off the first run
-(``tactile-bt bench`` reports the first run's time); compiling the entry point itself, with its
-whole call tree linked in, stays serial.
+into parts that do not depend on each other: the arm's kernels (:mod:`tactile_bt.robot.kernels`:
+resolved rates, one Newton step of the contact equilibrium) and the pad's contact model
+(:mod:`tactile_bt.sim.kernels`); perception's (:mod:`tactile_bt.perception.kernels`) stand
+alone.  :func:`start` compiles the arm's, then perception's, in a second process;
+:func:`finish` compiles the pad's in this one, then, as soon as the second process has the
+arm's, the entry point, whose callees load from numba's disk cache instead of compiling again.
+
+The split is what makes this pay: the large functions (the pad's contact, the arm's Newton
+step) are called, not inlined, by the entry point, so they are compiled once, in parallel, and
+the entry point itself is small.  numba still links and optimises the whole call tree into the
+entry point's machine code; that part stays serial.  ``tactile-bt bench`` reports the first
+run's time.
 
 Nothing changes in the compiled code: each function is compiled for the same argument types as
-a mission calls it with, and the cache key is the same either way.
+a mission calls it with, and the cache key is the same either way
+(``tests/test_kernel_build.py`` checks that a mission compiles no other version).
 
 Layer: sim.
 """
@@ -25,6 +30,8 @@ import atexit
 import os
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 from numba import types
@@ -38,15 +45,19 @@ _I2 = types.Array(types.int64, 2, "C")
 _F = types.float64
 _INT = types.int64
 _MASK = types.Array(types.boolean, 2, "C")
+# The work arrays of the arm's step (tactile_bt.robot.kernels.arm_work).
+_ARM_WORK = types.Tuple((_F1, _F2, _F2, _F1, _F2, _F1, _F1, _F2, _F2, _F1, _F2, _F1, _F2, _F1, _F1, _F1, _F1))
 
-#: The kernel parts :func:`compile_group` builds: the arm's and perception's (in the second
-#: process) and the pad's (in this one).
-GROUPS = ("arm", "pad")
+#: The kernel parts :func:`compile_group` builds: the arm's, then perception's (in the second
+#: process), and the pad's (in this one); the entry point, last, links the arm's and the pad's.
+GROUPS = ("arm", "perception", "pad")
+#: What the second process compiles, in this order.
+AHEAD = ("arm", "perception")
 
 #: Longest wait (s) for the second process; after it, this process compiles what is missing.
 TIMEOUT_S = 300.0
 
-_build: subprocess.Popen | None = None
+_build: _Build | None = None
 
 
 def _pad_kernel_signature() -> tuple:
@@ -58,20 +69,23 @@ def _pad_kernel_signature() -> tuple:
 def _signatures(group: str) -> list:
     """``(dispatcher, signature)`` of the functions of one group, callees before callers."""
     if group == "arm":
-        from tactile_bt.perception import kernels as pk
         from tactile_bt.robot import kernels as rk
 
         return [(rk.pose_jacobian, (_F1, _F1, _F2, _F2)),
                 (rk.rates_fast, (_F1, _F1, _F1, _F1, _F, _F, _F, _F1)),
-                (rk.newton_matrix, (_F2, _F1, _F2, _F2, _F1)),
-                (rk.lu_solve, (_F2, _F1, _F1)),
-                (pk.largest_region, (_F2, _F, _F, _F2, _MASK, types.Array(types.int32, 1, "C"))),
+                (rk.arm_next, (_INT, _F1, _F1, _F1, _F1, _ARM_WORK))]
+    if group == "perception":
+        from tactile_bt.perception import kernels as pk
+
+        return [(pk.largest_region, (_F2, _F, _F, _F2, _MASK, types.Array(types.int32, 1, "C"))),
                 (pk.windowed_centroid, (_F2, _MASK, _F, _F, _F, _F))]
     if group == "pad":
         from tactile_bt.sim import kernels as sk
 
         data = types.Tuple((_F2, _F2, _F2, _F1, _F2, _F1, _I2, _I1, _F1, _F1, _F1, _F1, _F1))
-        return [(sk._integrate, (_F2, data)),
+        return [(sk.to_local, (_F2, _INT, _F2, _INT, _F2)),
+                (sk.local_sdf, (_F2, _F1, _INT, _F2, _INT, _F1)),
+                (sk.pad_contact, (_F2, data, _F1, _F2)),
                 (sk._spread, (_F1, _F2, _F2, _INT, _INT, _INT)),
                 (sk._raw, (_F1, _F2, _F1, _F, _F1, types.Array(types.uint16, 1, "C")))]
     if group == "entry":
@@ -103,6 +117,40 @@ def is_cached(dispatcher, signature) -> bool:
         return False
 
 
+class _Build:
+    """The second process, and which of its groups are done (it prints each one's name)."""
+
+    def __init__(self, groups: tuple[str, ...]):
+        self.process = subprocess.Popen(_command(*groups), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                        stderr=subprocess.DEVNULL, text=True)
+        self.done = {group: threading.Event() for group in groups}
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            event = self.done.get(line.strip())
+            if event is not None:
+                event.set()
+        for event in self.done.values():  # the process ended: nothing more to wait for
+            event.set()
+
+    def wait(self, group: str, deadline: float) -> None:
+        """Until the process has compiled ``group`` (or ended, or ``deadline`` passed)."""
+        self.done[group].wait(max(deadline - time.monotonic(), 0.0))
+
+    def end(self, deadline: float) -> None:
+        """Until the process ends; killed at ``deadline``."""
+        try:
+            self.process.wait(timeout=max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
+            self.stop()
+
+    def stop(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait()
+
+
 def start() -> None:
     """On a cold cache, start compiling the arm's and perception's kernels in a second process
     (no-op when the entry point is cached, on one core, or when a build is already running)."""
@@ -113,8 +161,7 @@ def start() -> None:
     if is_cached(dispatcher, signature):
         return
     try:
-        _build = subprocess.Popen(_command("arm"), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL)
+        _build = _Build(AHEAD)
     except OSError:  # no second process: this one compiles everything, as without start()
         _build = None
     else:
@@ -123,9 +170,8 @@ def start() -> None:
 
 def _stop() -> None:
     """Stop a build nobody waited for (the run ended before it needed the kernels)."""
-    if _build is not None and _build.poll() is None:
-        _build.kill()
-        _build.wait()
+    if _build is not None:
+        _build.stop()
 
 
 def _command(*groups: str) -> list[str]:
@@ -140,24 +186,24 @@ def _command(*groups: str) -> list[str]:
 
 def finish() -> None:
     """Compile the pad's kernels here while the second process (if :func:`start` started one)
-    compiles the others, wait for it, then compile the entry point, which loads its callees
-    from the disk cache.  Without a started build: nothing (the first call compiles)."""
+    compiles the arm's; once it has, compile the entry point (its callees load from the disk
+    cache) while the second process goes on with perception's; then wait for it to end.
+    Without a started build: nothing (the first call compiles)."""
     global _build
     build, _build = _build, None
     if build is None:
         return
+    deadline = time.monotonic() + TIMEOUT_S
     compile_group("pad")
-    try:
-        build.wait(timeout=TIMEOUT_S)
-    except subprocess.TimeoutExpired:
-        build.kill()
-        build.wait()
+    build.wait("arm", deadline)
     compile_group("entry")
+    build.end(deadline)
 
 
 def _main(argv: list[str]) -> int:
     for group in argv:
         compile_group(group)
+        print(group, flush=True)
     return 0
 
 
