@@ -61,6 +61,15 @@ def test_first_run_times_a_fresh_process_with_an_empty_then_a_filled_cache(tmp_p
     line = format_bench({**_MINIMAL, "first_run": {**r, "mission_s": 20.0, "cold_real_time_factor": 1.0,
                                                    "warm_real_time_factor": 2.0}})
     assert "first run" in line and "empty kernel cache" in line
+    assert r["view_s"] is None  # a stand-in command has no render to time
+
+
+def test_the_main_command_figure_adds_the_render_to_the_mission():
+    r = {"command": "", "mission_s": 20.0, "cold_cache_s": 9.0, "warm_cache_s": 2.5, "cold_over_warm": 3.6,
+         "cold_real_time_factor": 2.2, "warm_real_time_factor": 8.0, "view_s": 2.0,
+         "main_command_cold_s": 11.0, "main_command_warm_s": 4.5}
+    line = format_bench({**_MINIMAL, "first_run": r}).splitlines()[-1]
+    assert line.startswith("main command") and "11.0 s the first time" in line and "render: 2.0 s" in line
 
 
 #: The figures format_bench needs, as bench --quick gives them (values do not matter here).
