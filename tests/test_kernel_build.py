@@ -15,6 +15,12 @@ TREE = ROOT / "trees" / "cable_follow.yaml"
 SCENE = ROOT / "sim" / "cable.yaml"
 
 
+def _empty_cache_env(cache: Path) -> dict:
+    """The environment of a fresh process on this checkout with the kernel cache ``cache``."""
+    return dict(os.environ, NUMBA_CACHE_DIR=str(cache),
+                PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p))
+
+
 _CHECK = """
 import sys
 from tactile_bt import run_mission
@@ -32,8 +38,7 @@ for group in warmup.GROUPS + ("entry",):
 def test_the_build_ahead_compiles_exactly_what_a_mission_calls(tmp_path):
     """A mission on an empty cache compiles no other version of a function built ahead (a wrong
     signature would be built for nothing, and the right one compiled late, in series)."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
-               PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p))
+    env = _empty_cache_env(tmp_path / "cache")
     done = subprocess.run([sys.executable, "-c", _CHECK, str(TREE), str(SCENE)], env=env, capture_output=True,
                           text=True, timeout=600)
     assert done.returncode == 0, done.stderr
@@ -64,8 +69,7 @@ def test_an_unknown_group_is_named():
 def test_a_first_run_on_an_empty_cache_builds_on_two_processes_and_gives_the_same_run(tmp_path):
     """The cold path end to end: a fresh process with an empty kernel cache runs the mission
     (the second process fills the cache as it goes), and a warm run of it gives the same report."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
-               PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p))
+    env = _empty_cache_env(tmp_path / "cache")
     outputs = []  # (rc 1: a mission this short ends on its budget, not by touch)
     for run in ("cold", "warm"):
         out = tmp_path / run
