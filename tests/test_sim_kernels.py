@@ -299,10 +299,12 @@ def test_sense_is_force_image_then_raw_frame_with_the_same_draws():
     assert deepest > 0
 
 
-def test_the_pad_kernel_is_compiled_once_for_every_scene():
-    """One machine-code version of the simulator's entry point serves every shape and mode."""
+def test_the_pad_and_arm_kernels_are_compiled_once_for_every_scene():
+    """One machine-code version of the pad's kernel and of the arm's step serves every shape and
+    mode."""
     for name in ("cable.yaml", "scan_ellipsoid.yaml", "toy_box.yaml"):
         world = load_scene(ROOT / "sim" / name).build_world(np.random.default_rng(0))
         world.sense()
         world.move(np.zeros(6), 0.004)
     assert len(sk.pad_kernel.signatures) == 1
+    assert len(rk.arm_step.signatures) == 1

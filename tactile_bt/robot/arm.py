@@ -42,9 +42,9 @@ described there.
 Compiled step
 -------------
 When the contact model offers ``arm_step`` (the simulated pad does, :class:`tactile_bt.sim.pad.PadContact`),
-:meth:`CompliantArm.move` and the quasi-static :meth:`CompliantArm.step` run in one compiled
-kernel (:mod:`tactile_bt.robot.kernels`): resolved rates, the equilibrium posture's motion and
-the contact equilibrium.  The rare steps it hands back (a joint that saturates, a step that needs
+:meth:`CompliantArm.move` and the quasi-static :meth:`CompliantArm.step` run in compiled
+kernels (:mod:`tactile_bt.robot.kernels`): resolved rates, then the equilibrium posture's motion
+and the contact equilibrium, which alternates with the contact model's own kernel.  The rare steps it hands back (a joint that saturates, a step that needs
 the bracketing line search) are finished by the Python solvers described here, from the same
 state.  Any other contact model (a Python callable) uses the Python solvers throughout.
 
@@ -177,6 +177,8 @@ class CompliantArm(EquilibriumSolverMixin):
         self._arm_key: tuple = ()
         self._arm_packed = np.zeros(kernels.ARM_SIZE)
         self._io = np.zeros(kernels.IO_SIZE)
+        self._io_q_eq = self._io[kernels.I_QEQ:kernels.I_QEQ + 7]
+        self._io_twist = self._io[kernels.I_TWIST:kernels.I_TWIST + 6]
         self._out = np.zeros(kernels.OUT_SIZE)
         #: Default contact model of :meth:`step` and :meth:`move` (a :data:`WrenchFn`), e.g. set
         #: by the world to the pad-object contact; ``None``: no contact.
@@ -393,9 +395,10 @@ class CompliantArm(EquilibriumSolverMixin):
         io[K.I_TOL] = self.tol
         io[K.I_ITER] = self.max_iter
         io[K.I_RADIUS] = self.pad_radius
+        if mode == 2.0 and not K.rates_fast(self._io_q_eq, self._io_twist, self.kin.packed, self._arm_packed,
+                                            float(dt), self.ik_damping, self.sigma_threshold, out):
+            return False  # (the Python solve's saturation loop)
         status = contact.arm_step(self.kin.packed, self._arm_packed, io, out)
-        if status == K.STATUS_RATES:
-            return False
         if mode == 2.0:
             self.last_rate = RateSolution(out[K.O_QD:K.O_QD + 7].copy(), float(out[K.O_LAM]), float(out[K.O_SMIN]),
                                           np.zeros(7, dtype=bool), float(out[K.O_SCALE]),

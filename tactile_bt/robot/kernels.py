@@ -1,8 +1,8 @@
 """Compiled kernels of the arm: kinematics, the resolved-rate step and the contact equilibrium.
 
 numba ``nopython`` versions of the arm's hot path, for a contact model that is compiled too
-(the simulated pad, :mod:`tactile_bt.sim.kernels`, builds its entry point around
-:func:`arm_step`).  They compute what :mod:`tactile_bt.robot.kinematics`,
+(the simulated pad, :class:`tactile_bt.sim.pad.SensorModel`, alternates :func:`arm_step` with
+its own kernel).  They compute what :mod:`tactile_bt.robot.kinematics`,
 :mod:`tactile_bt.robot.resolved_rate`, :mod:`tactile_bt.robot.redundancy` and
 :mod:`tactile_bt.robot.equilibrium` describe, with the same formulas, damping schedule and
 safeguards, written out for the 7-joint arm.  Those Python implementations stay: they serve any
@@ -11,14 +11,15 @@ check the kernels against them on random inputs (``tests/test_kernels.py``).
 
 The fast path and what it hands back
 ------------------------------------
-:func:`arm_step` does, in one call, what :meth:`~tactile_bt.robot.arm.CompliantArm.move` does:
+:func:`rates_fast` and :func:`arm_step` (one contact evaluation per call) do what
+:meth:`~tactile_bt.robot.arm.CompliantArm.move` does:
 
 * resolved rates (:func:`rates_fast`): the hybrid Jacobian, the null-space objective of
   :class:`~tactile_bt.robot.redundancy.LimitAvoidance`, the damped least-squares solve with its
   damping schedule (singular values by a one-sided Jacobi sweep, :func:`jacobi_svd`) and the
   velocity scaling.  A step that would drive a joint past its limit needs the saturation loop:
-  that is handed back (:data:`STATUS_RATES`), and the Python solve does it;
-* the implicit Euler step of the joint impedance against the contact (:func:`newton_fast`):
+  that is handed back (``False``), and the Python solve does it;
+* the implicit Euler step of the joint impedance against the contact (:func:`arm_step`):
   Newton with the contact's own stiffness ``K_x``, the per-iteration motion cap, the full step
   accepted when the energy's slope along it is small.  A step that needs the bracketing line
   search, or a singular Newton matrix, is handed back (:data:`STATUS_NEWTON`) to the Python
@@ -28,11 +29,14 @@ The fast path and what it hands back
 Compilation
 -----------
 ``cache=True`` keeps the machine code on disk (numba's ``NUMBA_CACHE_DIR``), IEEE semantics (no
-``fastmath``) keep a seed's run the same every time.  The functions that only one entry point
-calls are small ones inlined into it at numba's level (``inline="always"``: :func:`arm_work`,
-:func:`arm_begin`); the large ones (:func:`rates_fast`, :func:`arm_next`) are called, so that
-:mod:`tactile_bt.sim.warmup` can compile them in a second process on a cold cache (numba's
-inlining retypes the inlined code in every caller, which costs more than a call).  Loops run over sizes read from the arrays, and no helper takes a constant argument (each
+``fastmath``) keep a seed's run the same every time.  Python calls :func:`arm_step` and the
+contact model's kernel in turn, so neither links the other's machine code: numba links and
+optimises a function's whole call tree into it again, and one kernel calling both would pay the
+compile of both a second time, in series, on a cold cache (:mod:`tactile_bt.sim.warmup`).  The
+work arrays are views of one float64 array, so a call passes six arguments.  Small helpers with
+one caller are inlined at numba's level (``inline="always"``: :func:`arm_begin`); larger ones are
+called (numba's inlining retypes the inlined code in every caller, which costs more than a
+call).  Loops run over sizes read from the arrays, and no helper takes a constant argument (each
 constant would compile another copy).
 
 Layer: robot.
@@ -53,7 +57,6 @@ __all__ = [
     "STATUS_OK",
     "STATUS_NONFINITE",
     "STATUS_NEWTON",
-    "STATUS_RATES",
     "STATUS_EVALUATE",
     "pack_kinematics",
     "pack_arm",
@@ -64,9 +67,12 @@ __all__ = [
     "rates_fast",
     "newton_matrix",
     "lu_solve",
-    "arm_work",
+    "WORK_SIZE",
+    "BEGIN",
+    "W_TT",
+    "W_WT",
     "arm_begin",
-    "arm_next",
+    "arm_step",
 ]
 
 #: Options of every kernel: machine code cached on disk, numpy's error model (1/0 = inf, no
@@ -105,10 +111,7 @@ STATUS_NONFINITE = 1
 #: The equilibrium needs the bracketing line search or meets a singular Newton matrix: redo it
 #: in Python (``q_eq`` and the resolved rates of the output are already updated).
 STATUS_NEWTON = 2
-#: The resolved rates need the joint-limit saturation loop: redo the step in Python (nothing
-#: was changed).
-STATUS_RATES = 3
-#: :func:`arm_begin` / :func:`arm_next` need the contact at the trial pose.
+#: :func:`arm_step` needs the contact at the trial pose.
 STATUS_EVALUATE = 4
 
 #: Closest ``1 - u^2`` the joint-limit barrier evaluates (as :mod:`tactile_bt.robot.redundancy`).
@@ -464,37 +467,48 @@ def lu_solve(H, b, x):
     return True
 
 
+# The work array of arm_step (WORK_SIZE numbers): the current iterate (q, T, J, w, K_x, r), the
+# trial point (q_t, T_t, J_t, w_t, K_xt, r_t), the Newton matrix, the step, c = D / dt, K + c, and
+# the scalars (iterations, evaluations, the initial slope, first, converged).  w_t is followed
+# by K_xt (row-major): the 42 numbers a contact model writes for the pose T_t.
+W_Q, W_T, W_J, W_W, W_KX, W_R = 0, 7, 23, 65, 71, 107
+W_QT, W_TT, W_JT, W_WT, W_KXT, W_RT = 114, 121, 137, 179, 185, 221
+W_H, W_DQ, W_C, W_KD, W_SC = 228, 277, 284, 291, 298
+#: Length of :func:`arm_step`'s work array.
+WORK_SIZE = 303
+#: ``contact_status`` of :func:`arm_step` that starts a step.
+BEGIN = -1
+
+
 @njit(**INLINE)
-def arm_work():
-    """The work arrays of :func:`arm_begin` / :func:`arm_next`: the current iterate ``(q, T, J,
-    w, K_x, r)``, the trial point ``(q_t, T_t, J_t, w_t, K_xt, r_t)`` (a contact model fills
-    ``w_t`` and ``K_xt`` for the pose ``T_t``), the Newton matrix, the step, ``c = D / dt``,
-    ``K + c``, and the scalars: iterations, evaluations, the initial slope, first, converged."""
+def _work_views(W):
+    """The arrays of the work array ``W`` (layout above), as views."""
     n = 7
-    return (np.empty(n), np.empty((4, 4)), np.empty((6, n)), np.empty(6), np.empty((6, 6)), np.empty(n),
-            np.empty(n), np.empty((4, 4)), np.empty((6, n)), np.empty(6), np.empty((6, 6)), np.empty(n),
-            np.empty((n, n)), np.zeros(n), np.empty(n), np.empty(n), np.zeros(5))
+    return (W[W_Q:W_Q + n], W[W_T:W_T + 16].reshape((4, 4)), W[W_J:W_J + 6 * n].reshape((6, n)), W[W_W:W_W + 6],
+            W[W_KX:W_KX + 36].reshape((6, 6)), W[W_R:W_R + n],
+            W[W_QT:W_QT + n], W[W_TT:W_TT + 16].reshape((4, 4)), W[W_JT:W_JT + 6 * n].reshape((6, n)),
+            W[W_WT:W_WT + 6], W[W_KXT:W_KXT + 36].reshape((6, 6)), W[W_RT:W_RT + n],
+            W[W_H:W_H + n * n].reshape((n, n)), W[W_DQ:W_DQ + n], W[W_C:W_C + n], W[W_KD:W_KD + n],
+            W[W_SC:W_SC + 5])
 
 
 @njit(**INLINE)
 def arm_begin(kin, arm, io, out, work):
     """Start one quasi-static step of :class:`tactile_bt.robot.arm.CompliantArm` (see
-    :func:`arm_next`).
+    :func:`arm_step`).
 
     ``io`` (:data:`IO_SIZE`) holds the arm's state and the step's inputs; its rate mode is 2:
-    resolved rates for the twist (:func:`rates_fast`, into ``out``), 1: the commanded joint
-    velocities, 0: hold.  The equilibrium posture moves and is clipped into the limits, and the
-    previous posture becomes the first trial point.  Returns :data:`STATUS_EVALUATE` (a
-    contact model must fill ``w_t`` and ``K_xt`` of ``work`` for its ``T_t``), or
-    :data:`STATUS_RATES` (nothing changed: the Python solver takes the step).
+    the resolved rates :func:`rates_fast` has put into ``out`` (the caller calls it first, and
+    hands a step it refuses to the Python solver), 1: the commanded joint velocities, 0: hold.
+    The equilibrium posture moves and is clipped into the limits, and the previous posture
+    becomes the first trial point.  Returns :data:`STATUS_EVALUATE` (a contact model must fill
+    ``w_t`` and ``K_xt`` of ``work`` for its ``T_t``).
     """
     n = 7
     q, T, J, w, Kx, r, qt, Tt, Jt, wt, Kxt, rt, H, dq, c, Kd, sc = work
     dt = io[I_DT]
     mode = io[I_MODE]
-    if mode == 2.0:
-        if not rates_fast(io[I_QEQ:I_QEQ + n], io[I_TWIST:I_TWIST + 6], kin, arm, dt, io[I_DAMP], io[I_EPS], out):
-            return STATUS_RATES
+    if mode == 2.0:  # the resolved rates of rates_fast, in out
         for i in range(n):
             io[I_QDCMD + i] = out[O_QD + i]
     for i in range(n):
@@ -514,9 +528,15 @@ def arm_begin(kin, arm, io, out, work):
 
 
 @njit(**OPTS)
-def arm_next(contact_status, kin, arm, io, out, work):
-    """Continue the step of :func:`arm_begin` with the contact's wrench and stiffness at the
-    trial point (``contact_status`` non-zero: the contact model failed).
+def arm_step(contact_status, kin, arm, io, out, W):
+    """One quasi-static step of :class:`tactile_bt.robot.arm.CompliantArm` against a contact
+    model, one contact evaluation per call.
+
+    ``contact_status`` :data:`BEGIN` starts the step (:func:`arm_begin`).  Every call that
+    returns :data:`STATUS_EVALUATE` asks for the contact at the trial pose ``T_t`` of the work
+    array ``W`` (:data:`WORK_SIZE` numbers): the contact model writes the wrench ``w_t`` and its
+    stiffness ``K_xt`` (the 42 numbers from :data:`W_WT`), and the next call continues with its
+    status (non-zero: the contact model failed).
 
     The implicit Euler step ``K (q - q_eq) + c (q - q_prev) - J^T w = 0`` (``c = D / dt``) is
     solved as :meth:`tactile_bt.robot.equilibrium.EquilibriumSolverMixin._solve` does for a
@@ -524,12 +544,15 @@ def arm_next(contact_status, kin, arm, io, out, work):
     capped so no pad point moves more than the step limit and no joint more than 0.1 rad, the
     full step accepted when the energy's slope along it is at most half its initial value.
 
-    Returns :data:`STATUS_EVALUATE` (evaluate the contact at the new trial pose ``T_t`` and call
-    again) or the step's end: :data:`STATUS_OK` (``io``'s posture and joint velocities updated,
-    ``out`` holds the pose, Jacobian, wrench and diagnostics), :data:`STATUS_NEWTON` (a step that
-    needs the bracketing line search or meets a singular Newton matrix: ``q_eq`` is updated, the
-    Python solver redoes the equilibrium) or :data:`STATUS_NONFINITE`.
+    Returns :data:`STATUS_EVALUATE` (evaluate the contact at the new trial pose and call again)
+    or the step's end: :data:`STATUS_OK` (``io``'s posture and joint velocities updated, ``out``
+    holds the pose, Jacobian, wrench and diagnostics), :data:`STATUS_NEWTON` (a step that needs
+    the bracketing line search or meets a singular Newton matrix: ``q_eq`` is updated, the Python
+    solver redoes the equilibrium) or :data:`STATUS_NONFINITE`.
     """
+    work = _work_views(W)
+    if contact_status == BEGIN:
+        return arm_begin(kin, arm, io, out, work)
     n = 7
     q, T, J, w, Kx, r, qt, Tt, Jt, wt, Kxt, rt, H, dq, c, Kd, sc = work
     status = STATUS_EVALUATE

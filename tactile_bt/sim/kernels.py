@@ -1,6 +1,6 @@
 """Compiled kernels of the simulated pad: penetration of the sub-tactel samples into the scene's
-objects, tactel forces, foam spread, characteristic, noise and quantisation, the contact wrench
-and stiffness, and the compliant arm's step against that contact.
+objects, tactel forces, foam spread, characteristic, noise and quantisation, and the contact
+wrench and stiffness a compliant arm steps against.
 
 numba ``nopython`` versions of :class:`tactile_bt.sim.pad.SensorModel`'s hot path, with the
 objects' signed distances and ray depths (:mod:`tactile_bt.sim.objects`,
@@ -9,10 +9,11 @@ formulas, evaluated point by point instead of as numpy array operations.  ``test
 keeps the numpy implementation of the pad they replaced, and ``tests/test_kernels.py`` checks the
 two against each other (and every shape against its numpy ``depth`` and ``sdf``).
 
-One entry point, :func:`pad_kernel`, does everything, chosen by its ``mode``: numba compiles an
-entry point with its whole call tree, so one entry point for the simulator is compiled (and
-cached on disk) once.  Its arguments always have the same types (float64 and int64 C arrays,
-writable), so it never compiles a second version.
+One kernel, :func:`pad_kernel`, does all of it, chosen by its ``mode``: numba compiles a kernel
+with its whole call tree, so one kernel for the pad is compiled (and cached on disk) once.  Its
+arguments always have the same types (float64 and int64 C arrays, writable), so it never
+compiles a second version.  The compliant arm's step (:func:`tactile_bt.robot.kernels.arm_step`)
+is a kernel of its own: :class:`tactile_bt.sim.pad.SensorModel` calls the two in turn.
 
 Objects
 -------
@@ -31,7 +32,7 @@ import math
 import numpy as np
 from numba import njit
 
-from tactile_bt.robot.kernels import INLINE, OPTS, STATUS_EVALUATE, arm_begin, arm_next, arm_work
+from tactile_bt.robot.kernels import INLINE, OPTS
 
 __all__ = [
     "SHAPE_TABLE",
@@ -46,7 +47,6 @@ __all__ = [
     "MODE_CONTACT",
     "MODE_RAW",
     "MODE_SENSE",
-    "MODE_ARM",
     "pack_objects",
     "local_sdf",
     "local_depth",
@@ -77,9 +77,8 @@ LAST_T, LAST_W, LAST_K, LAST_DEEPEST = 1, 17, 23, 59
 LAST_SIZE = 60
 
 #: Modes of :func:`pad_kernel`: the force image (N per tactel, spread) at a pose; the contact
-#: wrench and stiffness; raw counts of a given force image; force image and raw counts; the
-#: compliant arm's step against the pad's contact.
-MODE_FORCE, MODE_CONTACT, MODE_RAW, MODE_SENSE, MODE_ARM = 0, 1, 2, 3, 4
+#: wrench and stiffness; raw counts of a given force image; force image and raw counts.
+MODE_FORCE, MODE_CONTACT, MODE_RAW, MODE_SENSE = 0, 1, 2, 3
 
 
 def pack_objects(objects, foam_stiffness: float, tactel_area: float, samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -315,10 +314,10 @@ def to_local(objf, o, P, m, L):
         L[i, 2] = dx * r02 + dy * r12 + dz * r22
 
 
-@njit(**OPTS)
-def pad_contact(T, data, w, K):
+@njit(**INLINE)
+def pad_contact(T, data, wK):
     """Penetration of the pad's samples at pose ``T`` into the objects: the force image and the
-    contact wrench and stiffness (for the arm's equilibrium, :func:`tactile_bt.robot.kernels.arm_next`).
+    contact wrench and stiffness (for the arm's equilibrium, :func:`tactile_bt.robot.kernels.arm_step`).
 
     ``data`` is ``(centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job,
     last, last_force)``.  The result for the last pose is kept (``last``: valid, the pose, the
@@ -330,8 +329,8 @@ def pad_contact(T, data, w, K):
     ``job[0]`` non-zero: the tactel forces (N, the largest over the objects of the sum over its
     samples of spring stiffness times depth; before the foam spread) into ``force``; ``job[1]``
     non-zero: the wrench ``[f; tau]`` on the pad (global frame, torque about the origin) into
-    ``w`` and its stiffness ``sum k a a^T``, ``a = [n; p x n]``, into ``K``.  The deepest
-    penetration (m) goes to ``job[2]``.  Returns 0.
+    ``wK[:6]`` and its stiffness ``sum k a a^T``, ``a = [n; p x n]``, into ``wK[6:42]``
+    (row-major).  The deepest penetration (m) goes to ``job[2]``.
     """
     centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job, last, last_force = data
     hit = last[0] != 0.0
@@ -344,12 +343,9 @@ def pad_contact(T, data, w, K):
         for i in range(last_force.shape[0]):
             force[i] = last_force[i]
     if job[1] != 0.0:
-        for i in range(6):
-            w[i] = last[LAST_W + i]
-            for k in range(6):
-                K[i, k] = last[LAST_K + 6 * i + k]
+        for i in range(42):
+            wK[i] = last[LAST_W + i]
     job[2] = last[LAST_DEEPEST]
-    return 0
 
 
 @njit(**OPTS)
@@ -547,50 +543,28 @@ def _raw(force, cal, z, gain, padf, raw):
 
 @njit(**OPTS)
 def pad_kernel(mode, T, centres, offsets, corners, padf, objf, grids, near, nnear, broad, job, last, last_force, Gr,
-               Gc, rows, cal, z, gain, force, wK, raw, kin, arm, io, out):
-    """The simulator's compiled entry point (module docstring); ``mode``:
+               Gc, rows, cal, z, gain, force, wK, raw):
+    """The simulator's compiled pad (module docstring); ``mode``:
 
-    * :data:`MODE_FORCE`: the force image at ``T`` (spread by the foam) into ``force``; returns
-      the deepest penetration (m);
-    * :data:`MODE_CONTACT`: the contact wrench and stiffness at ``T`` into ``wK`` (6 + 36);
+    * :data:`MODE_FORCE`: the force image at ``T`` (spread by the foam) into ``force``;
+    * :data:`MODE_CONTACT`: the contact wrench and stiffness at ``T`` into ``wK`` (6 + 36,
+      :func:`pad_contact`);
     * :data:`MODE_RAW`: raw counts of ``force`` into ``raw``, with the standard normal draws
       ``z`` and the frame gain ``gain``;
-    * :data:`MODE_SENSE`: the force image, then its raw counts;
-    * :data:`MODE_ARM`: the compliant arm's step against the pad's contact
-      (:func:`tactile_bt.robot.kernels.arm_begin`, ``kin``, ``arm``, ``io``, ``out``); returns
-      its status.
+    * :data:`MODE_SENSE`: the force image, then its raw counts.
 
     ``job``, ``last`` and ``last_force`` are :func:`pad_contact`'s work order (3 numbers) and
-    its record of the last pose.
+    its record of the last pose.  Returns the deepest penetration (m; 0 for :data:`MODE_RAW`).
     """
-    cols = centres.shape[0] // rows
-    data = (centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job, last, last_force)
-    job[0] = 1.0 if mode == MODE_FORCE or mode == MODE_SENSE else 0.0
-    job[1] = 0.0 if job[0] != 0.0 else 1.0
-    if mode == MODE_ARM:
-        work = arm_work()
-        Tt, wt, Kxt = work[7], work[9], work[10]
-        status = arm_begin(kin, arm, io, out, work)
-        while status == STATUS_EVALUATE:  # (int64: the signature arm_next is compiled ahead for)
-            status = arm_next(np.int64(pad_contact(Tt, data, wt, Kxt)), kin, arm, io, out, work)
-        return float(status)
-    if mode == MODE_CONTACT:
-        Kx = np.empty((6, 6))
-        w = np.empty(6)
-        pad_contact(T, data, w, Kx)
-        for i in range(6):
-            wK[i] = w[i]
-            for k in range(6):
-                wK[6 + 6 * i + k] = Kx[i, k]
-        return 0.0
     deepest = 0.0
-    if job[0] != 0.0:
-        Kx = np.empty((6, 6))
-        w = np.empty(6)
-        pad_contact(T, data, w, Kx)
+    if mode != MODE_RAW:
+        job[0] = 0.0 if mode == MODE_CONTACT else 1.0
+        job[1] = 1.0 if mode == MODE_CONTACT else 0.0
+        pad_contact(T, (centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job, last,
+                        last_force), wK)
         deepest = job[2]
-        if padf[PF_SPREAD] != 0.0:
-            _spread(force, Gr, Gc, int(padf[PF_RADIUS]), rows, cols)
+        if mode != MODE_CONTACT and padf[PF_SPREAD] != 0.0:
+            _spread(force, Gr, Gc, int(padf[PF_RADIUS]), rows, centres.shape[0] // rows)
     if mode == MODE_RAW or mode == MODE_SENSE:
         _raw(force, cal, z, gain, padf, raw)
     return deepest

@@ -28,6 +28,7 @@ import numpy as np
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sense.calibration import TactelCalibration
+from tactile_bt.robot import kernels as arm_kernels
 from tactile_bt.sim import kernels
 
 __all__ = ["SensorParams", "SensorModel", "PadContact"]
@@ -148,6 +149,10 @@ class SensorModel:
         self._raw = np.zeros(n, dtype=np.uint16)
         self._wK = np.zeros(42)
         self._T = np.eye(4)
+        # The arm step's work array, and its trial pose and the contact there as views of it.
+        self._arm_work = np.zeros(arm_kernels.WORK_SIZE)
+        self._arm_T = self._arm_work[arm_kernels.W_TT:arm_kernels.W_TT + 16].reshape(4, 4)
+        self._arm_wK = self._arm_work[arm_kernels.W_WT:arm_kernels.W_WT + 42]
         self._args = None
         self._cal_of = None
         self._cal = np.zeros((3, n))
@@ -205,13 +210,10 @@ class SensorModel:
                     raise ValueError(f"T_gs must be a 4x4 pose, got shape {T.shape}")
             self._T = T
 
-    def _run(self, mode: int, gain: float = 0.0, kin=None, arm=None, io=None, out=None) -> float:
-        """The compiled entry point (:func:`tactile_bt.sim.kernels.pad_kernel`), always with
-        arguments of the same types (one compiled version)."""
-        dummy = self._wK
-        return kernels.pad_kernel(mode, self._T, *self._args, gain, self._force, self._wK, self._raw,
-                                  dummy if kin is None else kin, dummy if arm is None else arm,
-                                  dummy if io is None else io, dummy if out is None else out)
+    def _run(self, mode: int, gain: float = 0.0) -> float:
+        """The compiled pad (:func:`tactile_bt.sim.kernels.pad_kernel`), always with arguments
+        of the same types (one compiled version)."""
+        return kernels.pad_kernel(mode, self._T, *self._args, gain, self._force, self._wK, self._raw)
 
     def _draw(self) -> float:
         """The frame's random draws, in the order of the numpy model: the common gain, then one
@@ -268,11 +270,18 @@ class SensorModel:
         return self._wK[:6].copy(), self._wK[6:].reshape(6, 6).copy()
 
     def arm_step(self, objects, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
-        """The compliant arm's step against the pad's contact with ``objects``, compiled
-        (:func:`tactile_bt.robot.kernels.arm_step`: the packed model, state and output arrays;
-        returns its status)."""
+        """The compliant arm's step against the pad's contact with ``objects``, compiled:
+        :func:`tactile_bt.robot.kernels.arm_step` (the packed model, state and output arrays)
+        and the pad's contact at each of its trial poses, in turn.  Returns the step's status."""
         self._prepare(None, objects)
-        return int(self._run(kernels.MODE_ARM, 0.0, kin, arm, io, out))
+        step, work, T, wK = arm_kernels.arm_step, self._arm_work, self._arm_T, self._arm_wK
+        args, force, raw = self._args, self._force, self._raw
+        contact = kernels.MODE_CONTACT
+        status = step(arm_kernels.BEGIN, kin, arm, io, out, work)
+        while status == arm_kernels.STATUS_EVALUATE:
+            kernels.pad_kernel(contact, T, *args, 0.0, force, wK, raw)
+            status = step(0, kin, arm, io, out, work)
+        return int(status)
 
     def spread(self, force: np.ndarray) -> np.ndarray:
         """Foam spread: a separable Gaussian of ``foam_spread`` tactels, truncated at 2.5 σ.

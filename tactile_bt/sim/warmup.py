@@ -1,21 +1,17 @@
 """The first run after an install: the compiled kernels built on two cores.
 
 numba compiles a kernel the first time it is called and keeps the machine code in its disk
-cache (``cache=True``); every later run loads it.  Compiling the simulator's entry point
-(:func:`tactile_bt.sim.kernels.pad_kernel`) compiles its whole call tree in one process, one
-function after the other, and that is most of the first run's wall time.  The call tree splits
-into parts that do not depend on each other: the arm's kernels (:mod:`tactile_bt.robot.kernels`:
-resolved rates, one Newton step of the contact equilibrium) and the pad's contact model
-(:mod:`tactile_bt.sim.kernels`); perception's (:mod:`tactile_bt.perception.kernels`) stand
-alone.  :func:`start` compiles the arm's, then perception's, in a second process;
-:func:`finish` compiles the pad's in this one, then, as soon as the second process has the
-arm's, the entry point, whose callees load from numba's disk cache instead of compiling again.
+cache (``cache=True``); every later run loads it.  On an empty cache that compile is most of the
+first run's wall time.  The kernels form three groups that do not call one another: the arm's
+(:mod:`tactile_bt.robot.kernels`: resolved rates, the contact equilibrium's step), the pad's
+(:mod:`tactile_bt.sim.kernels`) and perception's (:mod:`tactile_bt.perception.kernels`); the
+simulator calls the arm's step and the pad's contact in turn from Python, so no kernel links the
+arm's and the pad's machine code together (numba would compile that call tree again, in series).
 
-The split is what makes this pay: the large functions (the pad's contact, the arm's Newton
-step) are called, not inlined, by the entry point, so they are compiled once, in parallel, and
-the entry point itself is small.  numba still links and optimises the whole call tree into the
-entry point's machine code; that part stays serial.  ``tactile-bt bench`` reports the first
-run's time.
+:func:`start` starts a second process; :func:`finish` then compiles groups in this process
+while the second one compiles others, both taking the next group from one queue (largest
+first), until all are built; whatever one process builds, the other loads from the disk cache.
+``tactile-bt bench`` reports the first run's time.
 
 Nothing changes in the compiled code: each function is compiled for the same argument types as
 a mission calls it with, and the cache key is the same either way
@@ -45,14 +41,10 @@ _I2 = types.Array(types.int64, 2, "C")
 _F = types.float64
 _INT = types.int64
 _MASK = types.Array(types.boolean, 2, "C")
-# The work arrays of the arm's step (tactile_bt.robot.kernels.arm_work).
-_ARM_WORK = types.Tuple((_F1, _F2, _F2, _F1, _F2, _F1, _F1, _F2, _F2, _F1, _F2, _F1, _F2, _F1, _F1, _F1, _F1))
 
-#: The kernel parts :func:`compile_group` builds: the arm's, then perception's (in the second
-#: process), and the pad's (in this one); the entry point, last, links the arm's and the pad's.
-GROUPS = ("arm", "perception", "pad")
-#: What the second process compiles, in this order.
-AHEAD = ("arm", "perception")
+#: The kernel groups, in the order they are taken from the queue (largest first); the last
+#: function of each is the one the simulator or perception calls.
+GROUPS = ("arm", "pad", "perception")
 
 #: Longest wait (s) for the second process; after it, this process compiles what is missing.
 TIMEOUT_S = 300.0
@@ -61,9 +53,9 @@ _build: _Build | None = None
 
 
 def _pad_kernel_signature() -> tuple:
-    """The one signature :class:`tactile_bt.sim.pad.SensorModel` calls the entry point with."""
+    """The one signature :class:`tactile_bt.sim.pad.SensorModel` calls the pad's kernel with."""
     return (_INT, _F2, _F2, _F2, _F2, _F1, _F2, _F1, _I2, _I1, _F1, _F1, _F1, _F1, _F2, _F2, _INT, _F2, _F1, _F,
-            _F1, _F1, types.Array(types.uint16, 1, "C"), _F1, _F1, _F1, _F1)
+            _F1, _F1, types.Array(types.uint16, 1, "C"))
 
 
 def _signatures(group: str) -> list:
@@ -73,7 +65,7 @@ def _signatures(group: str) -> list:
 
         return [(rk.pose_jacobian, (_F1, _F1, _F2, _F2)),
                 (rk.rates_fast, (_F1, _F1, _F1, _F1, _F, _F, _F, _F1)),
-                (rk.arm_next, (_INT, _F1, _F1, _F1, _F1, _ARM_WORK))]
+                (rk.arm_step, (_INT, _F1, _F1, _F1, _F1, _F1))]
     if group == "perception":
         from tactile_bt.perception import kernels as pk
 
@@ -82,17 +74,8 @@ def _signatures(group: str) -> list:
     if group == "pad":
         from tactile_bt.sim import kernels as sk
 
-        data = types.Tuple((_F2, _F2, _F2, _F1, _F2, _F1, _I2, _I1, _F1, _F1, _F1, _F1, _F1))
-        return [(sk.to_local, (_F2, _INT, _F2, _INT, _F2)),
-                (sk.local_sdf, (_F2, _F1, _INT, _F2, _INT, _F1)),
-                (sk.pad_contact, (_F2, data, _F1, _F2)),
-                (sk._spread, (_F1, _F2, _F2, _INT, _INT, _INT)),
-                (sk._raw, (_F1, _F2, _F1, _F, _F1, types.Array(types.uint16, 1, "C")))]
-    if group == "entry":
-        from tactile_bt.sim import kernels as sk
-
         return [(sk.pad_kernel, _pad_kernel_signature())]
-    raise ValueError(f"unknown kernel group {group!r}; expected one of {GROUPS + ('entry',)}")
+    raise ValueError(f"unknown kernel group {group!r}; expected one of {GROUPS}")
 
 
 def compile_group(group: str) -> None:
@@ -118,28 +101,50 @@ def is_cached(dispatcher, signature) -> bool:
 
 
 class _Build:
-    """The second process, and which of its groups are done (it prints each one's name)."""
+    """The second process, the queue of groups both processes take from, and which are built."""
 
-    def __init__(self, groups: tuple[str, ...]):
-        self.process = subprocess.Popen(_command(*groups), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._queue = list(GROUPS)
+        self.done = {group: threading.Event() for group in GROUPS}
+        self.process = subprocess.Popen(_command(), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                         stderr=subprocess.DEVNULL, text=True)
-        self.done = {group: threading.Event() for group in groups}
+        self._give()
         threading.Thread(target=self._read, daemon=True).start()
+
+    def take(self) -> str | None:
+        """The next group nobody builds yet (None: none left)."""
+        with self._lock:
+            return self._queue.pop(0) if self._queue else None
+
+    def _give(self) -> None:
+        """Give the second process the next group, or tell it there is none (it then ends)."""
+        group = self.take()
+        try:
+            if group is None:
+                self.process.stdin.close()
+            else:
+                self.process.stdin.write(group + "\n")
+                self.process.stdin.flush()
+        except (OSError, ValueError):  # it has ended: the group goes back to the queue
+            if group is not None:
+                with self._lock:
+                    self._queue.insert(0, group)
 
     def _read(self) -> None:
         for line in self.process.stdout:
             event = self.done.get(line.strip())
             if event is not None:
                 event.set()
+                self._give()
         for event in self.done.values():  # the process ended: nothing more to wait for
             event.set()
 
-    def wait(self, group: str, deadline: float) -> None:
-        """Until the process has compiled ``group`` (or ended, or ``deadline`` passed)."""
-        self.done[group].wait(max(deadline - time.monotonic(), 0.0))
-
     def end(self, deadline: float) -> None:
-        """Until the process ends; killed at ``deadline``."""
+        """Wait for every group (or the process's end), then for the process; killed at
+        ``deadline``."""
+        for event in self.done.values():
+            event.wait(max(deadline - time.monotonic(), 0.0))
         try:
             self.process.wait(timeout=max(deadline - time.monotonic(), 0.0))
         except subprocess.TimeoutExpired:
@@ -152,16 +157,15 @@ class _Build:
 
 
 def start() -> None:
-    """On a cold cache, start compiling the arm's and perception's kernels in a second process
-    (no-op when the entry point is cached, on one core, or when a build is already running)."""
+    """On a cold cache, start the second process on the first group (no-op when the kernels are
+    cached, on one core, or when a build is already running)."""
     global _build
     if _build is not None or (os.cpu_count() or 1) < 2:
         return
-    dispatcher, signature = _signatures("entry")[0]
-    if is_cached(dispatcher, signature):
+    if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
         return
     try:
-        _build = _Build(AHEAD)
+        _build = _Build()
     except OSError:  # no second process: this one compiles everything, as without start()
         _build = None
     else:
@@ -175,9 +179,10 @@ def _stop() -> None:
 
 
 def _command(*groups: str) -> list[str]:
-    """The second process: this Python compiling ``groups`` of the tactile_bt this process runs
-    (its directory first on the path: numba's cache is per source file, and ``python -m`` would
-    put the working directory first, where another copy may be)."""
+    """The second process: this Python compiling ``groups`` (none: the groups named on its
+    standard input, one per line, until it closes) of the tactile_bt this process runs (its
+    directory first on the path: numba's cache is per source file, and ``python -m`` would put
+    the working directory first, where another copy may be)."""
     root = str(Path(__file__).resolve().parents[2])
     code = ("import sys; sys.path.insert(0, sys.argv[1]); "
             "from tactile_bt.sim.warmup import _main; sys.exit(_main(sys.argv[2:]))")
@@ -185,25 +190,26 @@ def _command(*groups: str) -> list[str]:
 
 
 def finish() -> None:
-    """Compile the pad's kernels here while the second process (if :func:`start` started one)
-    compiles the arm's; once it has, compile the entry point (its callees load from the disk
-    cache) while the second process goes on with perception's; then wait for it to end.
+    """Compile groups here, taking them from the queue the second process (if :func:`start`
+    started one) takes from too, until none is left; then wait for the second process's.
     Without a started build: nothing (the first call compiles)."""
     global _build
     build, _build = _build, None
     if build is None:
         return
     deadline = time.monotonic() + TIMEOUT_S
-    compile_group("pad")
-    build.wait("arm", deadline)
-    compile_group("entry")
+    while (group := build.take()) is not None:
+        compile_group(group)
+        build.done[group].set()
     build.end(deadline)
 
 
 def _main(argv: list[str]) -> int:
-    for group in argv:
+    for group in argv or (line.strip() for line in sys.stdin):
         compile_group(group)
         print(group, flush=True)
+    if not argv:  # the cache files are written: skip the interpreter's teardown (0.3-0.5 s)
+        os._exit(0)
     return 0
 
 
