@@ -133,7 +133,9 @@ def run_mission(
 
         prepare_output_dir(out)
 
-    kernel_build.finish()  # ... and the rest here, before the mission's clock starts
+    # ... and the rest here, before the mission's clock starts; waiting on the second process,
+    # import what the outputs need
+    kernel_build.finish(idle=None if out is None else _import_output_modules)
     pad = scene.sensor.geometry
     table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
@@ -219,6 +221,11 @@ def _write_setup(scene) -> float:
 
 #: Largest mission the preallocated log holds (cycles): 10 min at 1.9 kHz, 76 min at 250 Hz.
 MAX_CYCLES = 1_140_000
+
+
+def _import_output_modules() -> None:
+    """Import the plotting the outputs need (:func:`tactile_bt.mission.outputs.plot_errors`)."""
+    import matplotlib.pyplot  # noqa: F401
 
 
 def _check_cycles(n_cycles: int, duration: float, rate_hz: float) -> None:

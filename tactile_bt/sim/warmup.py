@@ -29,6 +29,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Callable
 
 from numba import types
 
@@ -189,9 +190,10 @@ def _command(*groups: str) -> list[str]:
     return [sys.executable, "-c", code, root, *groups]
 
 
-def finish() -> None:
+def finish(idle: Callable[[], object] | None = None) -> None:
     """Compile groups here, taking them from the queue the second process (if :func:`start`
-    started one) takes from too, until none is left; then wait for the second process's.
+    started one) takes from too, until none is left; then wait for the second process's,
+    calling ``idle`` first if it is still at work (say, to import what the run needs later).
     Without a started build: nothing (the first call compiles)."""
     global _build
     build, _build = _build, None
@@ -201,6 +203,8 @@ def finish() -> None:
     while (group := build.take()) is not None:
         compile_group(group)
         build.done[group].set()
+    if idle is not None and not all(event.is_set() for event in build.done.values()):
+        idle()
     build.end(deadline)
 
 
