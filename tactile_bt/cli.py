@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
+import os
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -13,7 +16,7 @@ import numpy as np
 from tactile_bt.arguments import check_output, check_output_dir, nonnegative_int, one_line_warnings, positive_float, positive_int
 from tactile_bt.errors import TactileBtError
 
-__all__ = ["main"]
+__all__ = ["main", "console"]
 
 
 def _cmd_run(args) -> int:
@@ -410,5 +413,25 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
+def console() -> None:
+    """The ``tactile-bt`` command: :func:`main`, then the process ends with its status.
+
+    When nothing is left to finish (no thread but daemons, the exit handlers run, standard
+    output and error flushed), the process ends without the interpreter's teardown, which
+    finalises numba, VTK and matplotlib object by object: about 0.3 s of every command.
+    Every output file is closed by then."""
+    status = main()
+    if all(thread.daemon or thread is threading.main_thread() for thread in threading.enumerate()):
+        try:
+            atexit._run_exitfuncs()  # what a normal exit runs first (progress bars, logging, ...)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except Exception:  # e.g. a closed pipe: the normal exit reports it
+            pass
+        else:
+            os._exit(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    console()
