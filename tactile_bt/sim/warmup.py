@@ -31,17 +31,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from numba import types
-
 __all__ = ["start", "finish", "compile_group", "is_cached", "GROUPS"]
-
-_F1 = types.Array(types.float64, 1, "C")
-_F2 = types.Array(types.float64, 2, "C")
-_I1 = types.Array(types.int64, 1, "C")
-_I2 = types.Array(types.int64, 2, "C")
-_F = types.float64
-_INT = types.int64
-_MASK = types.Array(types.boolean, 2, "C")
 
 #: The kernel groups, in the order they are taken from the queue (largest first); the last
 #: function of each is the one the simulator or perception calls.
@@ -53,29 +43,32 @@ TIMEOUT_S = 300.0
 _build: _Build | None = None
 
 
-def _pad_kernel_signature() -> tuple:
-    """The one signature :class:`tactile_bt.sim.pad.SensorModel` calls the pad's kernel with."""
-    return (_INT, _F2, _F2, _F2, _F2, _F1, _F2, _F1, _I2, _I1, _F1, _F1, _F1, _F1, _F2, _F2, _INT, _F2, _F1, _F,
-            _F1, _F1, types.Array(types.uint16, 1, "C"))
-
-
 def _signatures(group: str) -> list:
-    """``(dispatcher, signature)`` of the functions of one group, callees before callers."""
+    """``(dispatcher, signature)`` of the functions of one group, callees before callers: the
+    argument types the simulator (:class:`tactile_bt.sim.pad.SensorModel`,
+    :class:`tactile_bt.robot.arm.CompliantArm`) and perception call them with."""
+    from numba import types  # (not at import: start() spawns the second process first)
+
+    f1, f2 = types.Array(types.float64, 1, "C"), types.Array(types.float64, 2, "C")
+    i1, i2 = types.Array(types.int64, 1, "C"), types.Array(types.int64, 2, "C")
+    f, i = types.float64, types.int64
     if group == "arm":
         from tactile_bt.robot import kernels as rk
 
-        return [(rk.pose_jacobian, (_F1, _F1, _F2, _F2)),
-                (rk.rates_fast, (_F1, _F1, _F1, _F1, _F, _F, _F, _F1)),
-                (rk.arm_step, (_INT, _F1, _F1, _F1, _F1, _F1))]
+        return [(rk.pose_jacobian, (f1, f1, f2, f2)),
+                (rk.rates_fast, (f1, f1, f1, f1, f, f, f, f1)),
+                (rk.arm_step, (i, f1, f1, f1, f1, f1))]
     if group == "perception":
         from tactile_bt.perception import kernels as pk
 
-        return [(pk.largest_region, (_F2, _F, _F, _F2, _MASK, types.Array(types.int32, 1, "C"))),
-                (pk.windowed_centroid, (_F2, _MASK, _F, _F, _F, _F))]
+        mask = types.Array(types.boolean, 2, "C")
+        return [(pk.largest_region, (f2, f, f, f2, mask, types.Array(types.int32, 1, "C"))),
+                (pk.windowed_centroid, (f2, mask, f, f, f, f))]
     if group == "pad":
         from tactile_bt.sim import kernels as sk
 
-        return [(sk.pad_kernel, _pad_kernel_signature())]
+        return [(sk.pad_kernel, (i, f2, f2, f2, f2, f1, f2, f1, i2, i1, f1, f1, f1, f1, f2, f2, i, f2, f1, f,
+                                 f1, f1, types.Array(types.uint16, 1, "C")))]
     raise ValueError(f"unknown kernel group {group!r}; expected one of {GROUPS}")
 
 
@@ -110,7 +103,6 @@ class _Build:
         self.done = {group: threading.Event() for group in GROUPS}
         self.process = subprocess.Popen(_command(), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                         stderr=subprocess.DEVNULL, text=True)
-        self._give()
         threading.Thread(target=self._read, daemon=True).start()
 
     def take(self) -> str | None:
@@ -118,7 +110,7 @@ class _Build:
         with self._lock:
             return self._queue.pop(0) if self._queue else None
 
-    def _give(self) -> None:
+    def give(self) -> None:
         """Give the second process the next group, or tell it there is none (it then ends)."""
         group = self.take()
         try:
@@ -137,9 +129,16 @@ class _Build:
             event = self.done.get(line.strip())
             if event is not None:
                 event.set()
-                self._give()
+                self.give()
         for event in self.done.values():  # the process ended: nothing more to wait for
             event.set()
+        self.process.wait()
+
+    def stop_giving(self) -> None:
+        """Nothing for the second process to build: it ends."""
+        with self._lock:
+            self._queue.clear()
+        self.give()
 
     def end(self, deadline: float) -> None:
         """Wait for every group (or the process's end), then for the process; killed at
@@ -159,18 +158,22 @@ class _Build:
 
 def start() -> None:
     """On a cold cache, start the second process on the first group (no-op when the kernels are
-    cached, on one core, or when a build is already running)."""
+    cached, on one core, or when a build is already running).  The process starts before the
+    cache is checked, so that its start-up overlaps the check; on a warm cache it is told there
+    is nothing to build, and ends."""
     global _build
     if _build is not None or (os.cpu_count() or 1) < 2:
         return
-    if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
-        return
     try:
-        _build = _Build()
+        build = _Build()
     except OSError:  # no second process: this one compiles everything, as without start()
-        _build = None
-    else:
-        atexit.register(_stop)
+        return
+    if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
+        build.stop_giving()
+        return
+    build.give()
+    _build = build
+    atexit.register(_stop)
 
 
 def _stop() -> None:
