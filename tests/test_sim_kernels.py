@@ -300,11 +300,11 @@ def test_sense_is_force_image_then_raw_frame_with_the_same_draws():
 
 
 def test_the_pad_and_arm_kernels_are_compiled_once_for_every_scene():
-    """One machine-code version of the pad's kernel and of the arm's step serves every shape and
-    mode."""
+    """One machine-code version of each of the pad's kernels and of the arm's step serves every
+    shape and use."""
     for name in ("cable.yaml", "scan_ellipsoid.yaml", "toy_box.yaml"):
         world = load_scene(ROOT / "sim" / name).build_world(np.random.default_rng(0))
         world.sense()
         world.move(np.zeros(6), 0.004)
-    assert len(sk.pad_kernel.signatures) == 1
+    assert len(sk.pad_contact.signatures) == len(sk.foam_spread.signatures) == len(sk.raw_counts.signatures) == 1
     assert len(rk.arm_step.signatures) == 1

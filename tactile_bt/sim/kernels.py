@@ -9,11 +9,13 @@ formulas, evaluated point by point instead of as numpy array operations.  ``test
 keeps the numpy implementation of the pad they replaced, and ``tests/test_kernels.py`` checks the
 two against each other (and every shape against its numpy ``depth`` and ``sdf``).
 
-One kernel, :func:`pad_kernel`, does all of it, chosen by its ``mode``: numba compiles a kernel
-with its whole call tree, so one kernel for the pad is compiled (and cached on disk) once.  Its
-arguments always have the same types (float64 and int64 C arrays, writable), so it never
-compiles a second version.  The compliant arm's step (:func:`tactile_bt.robot.kernels.arm_step`)
-is a kernel of its own: :class:`tactile_bt.sim.pad.SensorModel` calls the two in turn.
+:class:`tactile_bt.sim.pad.SensorModel` calls three kernels: :func:`pad_contact` (the forces,
+wrench and stiffness at a pose), :func:`foam_spread` and :func:`raw_counts`; the compliant arm's
+step (:func:`tactile_bt.robot.kernels.arm_step`) alternates with :func:`pad_contact`.  numba
+links and optimises a kernel's whole call tree into its machine code, so the kernels Python
+calls are the only ones that link the shapes' functions, and none links another's tree.  Their
+arguments always have the same types (float64 and int64 C arrays, writable), so each is
+compiled (and cached on disk) once.
 
 Objects
 -------
@@ -32,7 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
-from tactile_bt.robot.kernels import INLINE, OPTS
+from tactile_bt.robot.kernels import OPTS
 
 __all__ = [
     "SHAPE_TABLE",
@@ -43,16 +45,13 @@ __all__ = [
     "SHAPE_MESH",
     "OBJ_SIZE",
     "PAD_SIZE",
-    "MODE_FORCE",
-    "MODE_CONTACT",
-    "MODE_RAW",
-    "MODE_SENSE",
     "pack_objects",
     "local_sdf",
     "local_depth",
     "to_local",
     "pad_contact",
-    "pad_kernel",
+    "foam_spread",
+    "raw_counts",
 ]
 
 #: Shape codes of :func:`pack_objects`.
@@ -64,11 +63,10 @@ F_CODE, F_IDENT, F_SCALE, F_R, F_T, F_BLO, F_BHI, F_P = 0, 1, 2, 3, 12, 15, 18, 
 OBJ_SIZE = 34
 # Where the grid of a cable and a mesh is described in its parameters: offset, shape.
 CABLE_GRID, MESH_GRID = F_P + 5, F_P + 8
-# The pad's numbers: tactel reach, broad-phase margin, foam spread on and its band radius, noise
-# (counts, relative), ADC maximum.
-PF_REACH, PF_MARGIN, PF_SPREAD, PF_RADIUS, PF_NOISE, PF_NOISE_REL, PF_ADC = 0, 1, 2, 3, 4, 5, 6
+# The pad's numbers: tactel reach, broad-phase margin, noise (counts, relative), ADC maximum.
+PF_REACH, PF_MARGIN, PF_NOISE, PF_NOISE_REL, PF_ADC = 0, 1, 2, 3, 4
 #: Numbers of the pad's record.
-PAD_SIZE = 7
+PAD_SIZE = 5
 #: Length of the broad phase's state: valid, and the pad corners it was made for (4 x 3).
 BROAD_SIZE = 13
 # The last evaluation: valid, pose (4x4), wrench, stiffness (6x6), deepest penetration.
@@ -76,9 +74,6 @@ LAST_T, LAST_W, LAST_K, LAST_DEEPEST = 1, 17, 23, 59
 #: Length of the last evaluation's record.
 LAST_SIZE = 60
 
-#: Modes of :func:`pad_kernel`: the force image (N per tactel, spread) at a pose; the contact
-#: wrench and stiffness; raw counts of a given force image; force image and raw counts.
-MODE_FORCE, MODE_CONTACT, MODE_RAW, MODE_SENSE = 0, 1, 2, 3
 
 
 def pack_objects(objects, foam_stiffness: float, tactel_area: float, samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -314,7 +309,7 @@ def to_local(objf, o, P, m, L):
         L[i, 2] = dx * r02 + dy * r12 + dz * r22
 
 
-@njit(**INLINE)
+@njit(**OPTS)
 def pad_contact(T, data, wK):
     """Penetration of the pad's samples at pose ``T`` into the objects: the force image and the
     contact wrench and stiffness (for the arm's equilibrium, :func:`tactile_bt.robot.kernels.arm_step`).
@@ -327,10 +322,10 @@ def pad_contact(T, data, wK):
     is redone when the pad's corners have moved more than half the margin since it was made
     (state: ``near``, ``nnear``, ``broad``), and the samples of those tactels are integrated.
     ``job[0]`` non-zero: the tactel forces (N, the largest over the objects of the sum over its
-    samples of spring stiffness times depth; before the foam spread) into ``force``; ``job[1]``
-    non-zero: the wrench ``[f; tau]`` on the pad (global frame, torque about the origin) into
-    ``wK[:6]`` and its stiffness ``sum k a a^T``, ``a = [n; p x n]``, into ``wK[6:42]``
-    (row-major).  The deepest penetration (m) goes to ``job[2]``.
+    samples of spring stiffness times depth; before the foam spread, :func:`foam_spread`) into
+    ``force``; ``job[1]`` non-zero: the wrench ``[f; tau]`` on the pad (global frame, torque
+    about the origin) into ``wK[:6]`` and its stiffness ``sum k a a^T``, ``a = [n; p x n]``, into
+    ``wK[6:42]`` (row-major).  Returns the deepest penetration (m), also put in ``job[2]``.
     """
     centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job, last, last_force = data
     hit = last[0] != 0.0
@@ -338,7 +333,160 @@ def pad_contact(T, data, wK):
         for k in range(4):
             hit = hit and T[i, k] == last[LAST_T + 4 * i + k]
     if not hit:
-        _integrate(T, data)
+        w = np.zeros(6)
+        K = np.zeros((6, 6))
+        nt = centres.shape[0]
+        ns = offsets.shape[0]
+        nobj = nnear.shape[0]
+        margin = padf[PF_MARGIN]
+        cw = np.empty((4, 3))
+        drift = 0.0
+        for c in range(4):
+            for k in range(3):
+                cw[c, k] = corners[c, 0] * T[k, 0] + corners[c, 1] * T[k, 1] + corners[c, 2] * T[k, 2] + T[k, 3]
+                drift = max(drift, abs(cw[c, k] - broad[1 + 3 * c + k]))
+        P = np.empty((nt * ns, 3))  # world points
+        L = np.empty((nt * ns, 3))  # the same in an object's frame
+        D = np.empty(nt * ns)  # their depths or distances
+        if broad[0] == 0.0 or drift > margin / 2:
+            lo = np.empty(3)
+            hi = np.empty(3)
+            for k in range(3):
+                lo[k] = min(min(cw[0, k], cw[1, k]), min(cw[2, k], cw[3, k]))
+                hi[k] = max(max(cw[0, k], cw[1, k]), max(cw[2, k], cw[3, k]))
+            for i in range(nt):
+                for k in range(3):
+                    P[i, k] = centres[i, 0] * T[k, 0] + centres[i, 1] * T[k, 1] + centres[i, 2] * T[k, 2] + T[k, 3]
+            for o in range(nobj):
+                nnear[o] = 0
+                apart = False
+                for k in range(3):
+                    apart = apart or hi[k] + margin < objf[o, F_BLO + k] or lo[k] - margin > objf[o, F_BHI + k]
+                if apart:
+                    continue
+                to_local(objf, o, P, nt, L)
+                local_sdf(objf, grids, o, L, nt, D)
+                cnt = 0
+                for i in range(nt):
+                    if D[i] < padf[PF_REACH] + margin:
+                        near[o, cnt] = i
+                        cnt += 1
+                nnear[o] = cnt
+            broad[0] = 1.0
+            for c in range(4):
+                for k in range(3):
+                    broad[1 + 3 * c + k] = cw[c, k]
+        for i in range(nt):
+            last_force[i] = 0.0
+        n0, n1, n2 = T[0, 2], T[1, 2], T[2, 2]  # the pad presses along its +z
+        deepest = 0.0
+        S = np.empty((3, 3))
+        for o in range(nobj):
+            m = nnear[o]
+            if m == 0:
+                continue
+            j = 0
+            for ii in range(m):
+                i = near[o, ii]
+                for s in range(ns):
+                    l0 = centres[i, 0] + offsets[s, 0]
+                    l1 = centres[i, 1] + offsets[s, 1]
+                    l2 = centres[i, 2] + offsets[s, 2]
+                    for k in range(3):
+                        P[j, k] = l0 * T[k, 0] + l1 * T[k, 1] + l2 * T[k, 2] + T[k, 3]
+                    j += 1
+            mj = m * ns  # (not j: a counter that starts at a constant would compile another copy)
+            to_local(objf, o, P, mj, L)
+            # the pressing direction in the object's frame
+            nx = n0 * objf[o, F_R] + n1 * objf[o, F_R + 3] + n2 * objf[o, F_R + 6]
+            ny = n0 * objf[o, F_R + 1] + n1 * objf[o, F_R + 4] + n2 * objf[o, F_R + 7]
+            nz = n0 * objf[o, F_R + 2] + n1 * objf[o, F_R + 5] + n2 * objf[o, F_R + 8]
+            local_depth(objf, grids, o, L, mj, nx, ny, nz, D)
+            scale = objf[o, F_SCALE]
+            cnt = 0
+            sd = 0.0
+            sdp0 = 0.0
+            sdp1 = 0.0
+            sdp2 = 0.0
+            sp0 = 0.0
+            sp1 = 0.0
+            sp2 = 0.0
+            for a in range(3):
+                for b in range(3):
+                    S[a, b] = 0.0
+            j = 0
+            for ii in range(m):
+                total = 0.0
+                for s in range(ns):
+                    d = D[j]
+                    total += d
+                    if d > 0.0:
+                        p0, p1, p2 = P[j, 0], P[j, 1], P[j, 2]
+                        deepest = max(deepest, d)
+                        cnt += 1
+                        sd += d
+                        sdp0 += d * p0
+                        sdp1 += d * p1
+                        sdp2 += d * p2
+                        sp0 += p0
+                        sp1 += p1
+                        sp2 += p2
+                        S[0, 0] += p0 * p0
+                        S[0, 1] += p0 * p1
+                        S[0, 2] += p0 * p2
+                        S[1, 1] += p1 * p1
+                        S[1, 2] += p1 * p2
+                        S[2, 2] += p2 * p2
+                    j += 1
+                i = near[o, ii]
+                last_force[i] = max(last_force[i], total * scale)
+            if cnt > 0:
+                S[1, 0] = S[0, 1]
+                S[2, 0] = S[0, 2]
+                S[2, 1] = S[1, 2]
+                # wrench = -k sum d [n; p x n]; K_x = k sum a a^T with a = [n; p x n]
+                w[0] -= scale * sd * n0
+                w[1] -= scale * sd * n1
+                w[2] -= scale * sd * n2
+                w[3] -= scale * (sdp1 * n2 - sdp2 * n1)
+                w[4] -= scale * (sdp2 * n0 - sdp0 * n2)
+                w[5] -= scale * (sdp0 * n1 - sdp1 * n0)
+                nv = np.empty(3)
+                mv = np.empty(3)
+                nv[0], nv[1], nv[2] = n0, n1, n2
+                mv[0] = sp1 * n2 - sp2 * n1
+                mv[1] = sp2 * n0 - sp0 * n2
+                mv[2] = sp0 * n1 - sp1 * n0
+                kc = scale * cnt
+                for a in range(3):
+                    for b in range(3):
+                        K[a, b] += kc * nv[a] * nv[b]
+                        K[a, 3 + b] += scale * nv[a] * mv[b]
+                        K[3 + a, b] += scale * mv[a] * nv[b]
+                # N S N^T with N = [n]x: the sum of (p x n)(p x n)^T
+                N = np.zeros((3, 3))
+                N[0, 1] = -n2
+                N[0, 2] = n1
+                N[1, 0] = n2
+                N[1, 2] = -n0
+                N[2, 0] = -n1
+                N[2, 1] = n0
+                for a in range(3):
+                    for b in range(3):
+                        acc = 0.0
+                        for c in range(3):
+                            for e in range(3):
+                                acc += N[a, c] * S[c, e] * N[b, e]
+                        K[3 + a, 3 + b] += scale * acc
+        last[0] = 1.0
+        for i in range(4):
+            for k in range(4):
+                last[LAST_T + 4 * i + k] = T[i, k]
+        for i in range(6):
+            last[LAST_W + i] = w[i]
+            for k in range(6):
+                last[LAST_K + 6 * i + k] = K[i, k]
+        last[LAST_DEEPEST] = deepest
     if job[0] != 0.0:
         for i in range(last_force.shape[0]):
             force[i] = last_force[i]
@@ -346,171 +494,13 @@ def pad_contact(T, data, wK):
         for i in range(42):
             wK[i] = last[LAST_W + i]
     job[2] = last[LAST_DEEPEST]
+    return job[2]
 
 
 @njit(**OPTS)
-def _integrate(T, data):
-    """:func:`pad_contact` at a new pose: broad phase, depths, sums; into ``last`` and ``last_force``."""
-    centres, offsets, corners, padf, objf, grids, near, nnear, broad, _, job, last, force = data
-    w = np.zeros(6)
-    K = np.zeros((6, 6))
-    nt = centres.shape[0]
-    ns = offsets.shape[0]
-    nobj = nnear.shape[0]
-    margin = padf[PF_MARGIN]
-    cw = np.empty((4, 3))
-    drift = 0.0
-    for c in range(4):
-        for k in range(3):
-            cw[c, k] = corners[c, 0] * T[k, 0] + corners[c, 1] * T[k, 1] + corners[c, 2] * T[k, 2] + T[k, 3]
-            drift = max(drift, abs(cw[c, k] - broad[1 + 3 * c + k]))
-    P = np.empty((nt * ns, 3))  # world points
-    L = np.empty((nt * ns, 3))  # the same in an object's frame
-    D = np.empty(nt * ns)  # their depths or distances
-    if broad[0] == 0.0 or drift > margin / 2:
-        lo = np.empty(3)
-        hi = np.empty(3)
-        for k in range(3):
-            lo[k] = min(min(cw[0, k], cw[1, k]), min(cw[2, k], cw[3, k]))
-            hi[k] = max(max(cw[0, k], cw[1, k]), max(cw[2, k], cw[3, k]))
-        for i in range(nt):
-            for k in range(3):
-                P[i, k] = centres[i, 0] * T[k, 0] + centres[i, 1] * T[k, 1] + centres[i, 2] * T[k, 2] + T[k, 3]
-        for o in range(nobj):
-            nnear[o] = 0
-            apart = False
-            for k in range(3):
-                apart = apart or hi[k] + margin < objf[o, F_BLO + k] or lo[k] - margin > objf[o, F_BHI + k]
-            if apart:
-                continue
-            to_local(objf, o, P, nt, L)
-            local_sdf(objf, grids, o, L, nt, D)
-            cnt = 0
-            for i in range(nt):
-                if D[i] < padf[PF_REACH] + margin:
-                    near[o, cnt] = i
-                    cnt += 1
-            nnear[o] = cnt
-        broad[0] = 1.0
-        for c in range(4):
-            for k in range(3):
-                broad[1 + 3 * c + k] = cw[c, k]
-    for i in range(nt):
-        force[i] = 0.0
-    n0, n1, n2 = T[0, 2], T[1, 2], T[2, 2]  # the pad presses along its +z
-    deepest = 0.0
-    S = np.empty((3, 3))
-    for o in range(nobj):
-        m = nnear[o]
-        if m == 0:
-            continue
-        j = 0
-        for ii in range(m):
-            i = near[o, ii]
-            for s in range(ns):
-                l0 = centres[i, 0] + offsets[s, 0]
-                l1 = centres[i, 1] + offsets[s, 1]
-                l2 = centres[i, 2] + offsets[s, 2]
-                for k in range(3):
-                    P[j, k] = l0 * T[k, 0] + l1 * T[k, 1] + l2 * T[k, 2] + T[k, 3]
-                j += 1
-        mj = m * ns  # (not j: a counter that starts at a constant would compile another copy)
-        to_local(objf, o, P, mj, L)
-        # the pressing direction in the object's frame
-        nx = n0 * objf[o, F_R] + n1 * objf[o, F_R + 3] + n2 * objf[o, F_R + 6]
-        ny = n0 * objf[o, F_R + 1] + n1 * objf[o, F_R + 4] + n2 * objf[o, F_R + 7]
-        nz = n0 * objf[o, F_R + 2] + n1 * objf[o, F_R + 5] + n2 * objf[o, F_R + 8]
-        local_depth(objf, grids, o, L, mj, nx, ny, nz, D)
-        scale = objf[o, F_SCALE]
-        cnt = 0
-        sd = 0.0
-        sdp0 = 0.0
-        sdp1 = 0.0
-        sdp2 = 0.0
-        sp0 = 0.0
-        sp1 = 0.0
-        sp2 = 0.0
-        for a in range(3):
-            for b in range(3):
-                S[a, b] = 0.0
-        j = 0
-        for ii in range(m):
-            total = 0.0
-            for s in range(ns):
-                d = D[j]
-                total += d
-                if d > 0.0:
-                    p0, p1, p2 = P[j, 0], P[j, 1], P[j, 2]
-                    deepest = max(deepest, d)
-                    cnt += 1
-                    sd += d
-                    sdp0 += d * p0
-                    sdp1 += d * p1
-                    sdp2 += d * p2
-                    sp0 += p0
-                    sp1 += p1
-                    sp2 += p2
-                    S[0, 0] += p0 * p0
-                    S[0, 1] += p0 * p1
-                    S[0, 2] += p0 * p2
-                    S[1, 1] += p1 * p1
-                    S[1, 2] += p1 * p2
-                    S[2, 2] += p2 * p2
-                j += 1
-            i = near[o, ii]
-            force[i] = max(force[i], total * scale)
-        if cnt > 0:
-            S[1, 0] = S[0, 1]
-            S[2, 0] = S[0, 2]
-            S[2, 1] = S[1, 2]
-            # wrench = -k sum d [n; p x n]; K_x = k sum a a^T with a = [n; p x n]
-            w[0] -= scale * sd * n0
-            w[1] -= scale * sd * n1
-            w[2] -= scale * sd * n2
-            w[3] -= scale * (sdp1 * n2 - sdp2 * n1)
-            w[4] -= scale * (sdp2 * n0 - sdp0 * n2)
-            w[5] -= scale * (sdp0 * n1 - sdp1 * n0)
-            nv = np.empty(3)
-            mv = np.empty(3)
-            nv[0], nv[1], nv[2] = n0, n1, n2
-            mv[0] = sp1 * n2 - sp2 * n1
-            mv[1] = sp2 * n0 - sp0 * n2
-            mv[2] = sp0 * n1 - sp1 * n0
-            kc = scale * cnt
-            for a in range(3):
-                for b in range(3):
-                    K[a, b] += kc * nv[a] * nv[b]
-                    K[a, 3 + b] += scale * nv[a] * mv[b]
-                    K[3 + a, b] += scale * mv[a] * nv[b]
-            # N S N^T with N = [n]x: the sum of (p x n)(p x n)^T
-            N = np.zeros((3, 3))
-            N[0, 1] = -n2
-            N[0, 2] = n1
-            N[1, 0] = n2
-            N[1, 2] = -n0
-            N[2, 0] = -n1
-            N[2, 1] = n0
-            for a in range(3):
-                for b in range(3):
-                    acc = 0.0
-                    for c in range(3):
-                        for e in range(3):
-                            acc += N[a, c] * S[c, e] * N[b, e]
-                    K[3 + a, 3 + b] += scale * acc
-    last[0] = 1.0
-    for i in range(4):
-        for k in range(4):
-            last[LAST_T + 4 * i + k] = T[i, k]
-    for i in range(6):
-        last[LAST_W + i] = w[i]
-        for k in range(6):
-            last[LAST_K + 6 * i + k] = K[i, k]
-    last[LAST_DEEPEST] = deepest
-
-
-@njit(**OPTS)
-def _spread(force, Gr, Gc, radius, rows, cols):
-    """``G_r F G_c^T`` in place on the row-major tactel forces (band matrices of ``radius``)."""
+def foam_spread(force, Gr, Gc, radius, rows, cols):
+    """The foam's spread, ``G_r F G_c^T``, in place on the row-major tactel forces ``force``
+    (band matrices of ``radius``; ``rows`` x ``cols`` tactels)."""
     F = np.empty((rows, cols))
     for i in range(rows):
         for c in range(cols):
@@ -527,8 +517,9 @@ def _spread(force, Gr, Gc, radius, rows, cols):
 
 
 @njit(**OPTS)
-def _raw(force, cal, z, gain, padf, raw):
-    """Raw counts: the tactels' characteristic, frame gain noise, per-tactel noise, rounding,
+def raw_counts(force, cal, z, gain, padf, raw):
+    """Raw counts of the tactel forces ``force`` into ``raw``: the tactels' characteristic, the
+    frame gain ``gain``, per-tactel noise from the standard normal draws ``z``, rounding,
     saturation (:meth:`tactile_bt.sim.pad.SensorModel.raw_frame`)."""
     adc = padf[PF_ADC]
     for i in range(force.shape[0]):
@@ -539,32 +530,3 @@ def _raw(force, cal, z, gain, padf, raw):
         noisy = np.rint(offset + gain * signal + sigma * z[i])
         noisy = min(max(noisy, 0.0), adc)
         raw[i] = np.uint16(noisy)
-
-
-@njit(**OPTS)
-def pad_kernel(mode, T, centres, offsets, corners, padf, objf, grids, near, nnear, broad, job, last, last_force, Gr,
-               Gc, rows, cal, z, gain, force, wK, raw):
-    """The simulator's compiled pad (module docstring); ``mode``:
-
-    * :data:`MODE_FORCE`: the force image at ``T`` (spread by the foam) into ``force``;
-    * :data:`MODE_CONTACT`: the contact wrench and stiffness at ``T`` into ``wK`` (6 + 36,
-      :func:`pad_contact`);
-    * :data:`MODE_RAW`: raw counts of ``force`` into ``raw``, with the standard normal draws
-      ``z`` and the frame gain ``gain``;
-    * :data:`MODE_SENSE`: the force image, then its raw counts.
-
-    ``job``, ``last`` and ``last_force`` are :func:`pad_contact`'s work order (3 numbers) and
-    its record of the last pose.  Returns the deepest penetration (m; 0 for :data:`MODE_RAW`).
-    """
-    deepest = 0.0
-    if mode != MODE_RAW:
-        job[0] = 0.0 if mode == MODE_CONTACT else 1.0
-        job[1] = 1.0 if mode == MODE_CONTACT else 0.0
-        pad_contact(T, (centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job, last,
-                        last_force), wK)
-        deepest = job[2]
-        if mode != MODE_CONTACT and padf[PF_SPREAD] != 0.0:
-            _spread(force, Gr, Gc, int(padf[PF_RADIUS]), rows, centres.shape[0] // rows)
-    if mode == MODE_RAW or mode == MODE_SENSE:
-        _raw(force, cal, z, gain, padf, raw)
-    return deepest

@@ -131,12 +131,11 @@ class SensorModel:
             self._spread_rows = _gaussian_band(pad.rows, p.foam_spread)
             self._spread_cols = _gaussian_band(pad.cols, p.foam_spread)
             radius = max(1, int(np.ceil(2.5 * p.foam_spread)))
+        self._spread_radius = radius
         # What the compiled kernel reads (types fixed: float64 / int64 C arrays, writable).
         self._padf = np.zeros(kernels.PAD_SIZE)
         self._padf[kernels.PF_REACH] = pad.pitch * np.sqrt(0.5)  # no point of a tactel is farther from its centre
         self._padf[kernels.PF_MARGIN] = self.BROAD_PHASE_MARGIN
-        self._padf[kernels.PF_SPREAD] = 1.0 if radius else 0.0
-        self._padf[kernels.PF_RADIUS] = radius
         self._padf[kernels.PF_NOISE] = p.noise_counts
         self._padf[kernels.PF_NOISE_REL] = p.noise_relative
         self._padf[kernels.PF_ADC] = defaults.ADC_MAX
@@ -198,10 +197,9 @@ class SensorModel:
                                                        for a in (cal.offset, cal.span, cal.force_scale)]))
             self._cal_of = cal
             self._args = None
-        if self._args is None:
+        if self._args is None:  # pad_contact's data
             self._args = (self._centres, self._offsets, self._corners, self._padf, self._objf, self._grids, self._near,
-                          self._nnear, self._broad, self._job, self._last, self._last_force, self._Gr, self._Gc,
-                          self.pad.rows, self._cal, self._z)
+                          self._nnear, self._broad, self._force, self._job, self._last, self._last_force)
         if T_gs is not None:
             T = T_gs
             if not (type(T) is np.ndarray and T.dtype == np.float64 and T.shape == (4, 4) and T.flags.c_contiguous):
@@ -210,10 +208,21 @@ class SensorModel:
                     raise ValueError(f"T_gs must be a 4x4 pose, got shape {T.shape}")
             self._T = T
 
-    def _run(self, mode: int, gain: float = 0.0) -> float:
-        """The compiled pad (:func:`tactile_bt.sim.kernels.pad_kernel`), always with arguments
-        of the same types (one compiled version)."""
-        return kernels.pad_kernel(mode, self._T, *self._args, gain, self._force, self._wK, self._raw)
+    def _forces(self) -> float:
+        """The tactel forces at ``_T`` (spread by the foam) into ``_force``; returns the deepest
+        penetration (m).  The kernels are always called with arguments of the same types (one
+        compiled version each)."""
+        job = self._job
+        job[0] = 1.0
+        job[1] = 0.0
+        deepest = kernels.pad_contact(self._T, self._args, self._wK)
+        if self._spread_rows is not None:
+            kernels.foam_spread(self._force, self._Gr, self._Gc, self._spread_radius, self.pad.rows, self.pad.cols)
+        return deepest
+
+    def _counts(self, gain: float) -> None:
+        """Raw counts of ``_force`` into ``_raw``, with the frame gain and the draws in ``_z``."""
+        kernels.raw_counts(self._force, self._cal, self._z, gain, self._padf, self._raw)
 
     def _draw(self) -> float:
         """The frame's random draws, in the order of the numpy model: the common gain, then one
@@ -240,14 +249,15 @@ class SensorModel:
         and the foam spreads the result (:meth:`spread`).
         """
         self._prepare(T_gs, objects)
-        deepest = self._run(kernels.MODE_FORCE)
+        deepest = self._forces()
         return self._force.reshape(self.pad.shape).copy(), float(deepest)
 
     def sense(self, T_gs: np.ndarray, objects) -> tuple[np.ndarray, np.ndarray, float]:
         """:meth:`force_image` and :meth:`raw_frame` in one pass: ``(raw, force, deepest)``."""
         self._prepare(T_gs, objects)
         gain = self._draw()
-        deepest = self._run(kernels.MODE_SENSE, gain)
+        deepest = self._forces()
+        self._counts(gain)
         shape = self.pad.shape
         return self._raw.reshape(shape).copy(), self._force.reshape(shape).copy(), float(deepest)
 
@@ -266,7 +276,9 @@ class SensorModel:
             ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
         """
         self._prepare(T_gs, objects)
-        self._run(kernels.MODE_CONTACT)
+        self._job[0] = 0.0
+        self._job[1] = 1.0
+        kernels.pad_contact(self._T, self._args, self._wK)
         return self._wK[:6].copy(), self._wK[6:].reshape(6, 6).copy()
 
     def arm_step(self, objects, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
@@ -275,11 +287,12 @@ class SensorModel:
         and the pad's contact at each of its trial poses, in turn.  Returns the step's status."""
         self._prepare(None, objects)
         step, work, T, wK = arm_kernels.arm_step, self._arm_work, self._arm_T, self._arm_wK
-        args, force, raw = self._args, self._force, self._raw
-        contact = kernels.MODE_CONTACT
+        contact, data, job = kernels.pad_contact, self._args, self._job
+        job[0] = 0.0
+        job[1] = 1.0
         status = step(arm_kernels.BEGIN, kin, arm, io, out, work)
         while status == arm_kernels.STATUS_EVALUATE:
-            kernels.pad_kernel(contact, T, *args, 0.0, force, wK, raw)
+            contact(T, data, wK)
             status = step(0, kin, arm, io, out, work)
         return int(status)
 
@@ -301,7 +314,7 @@ class SensorModel:
         self._prepare(None, self._packed)
         self._force[:] = f.ravel()
         gain = self._draw()
-        self._run(kernels.MODE_RAW, gain)
+        self._counts(gain)
         return self._raw.reshape(self.pad.shape).copy()
 
 

@@ -67,8 +67,10 @@ def _signatures(group: str) -> list:
     if group == "pad":
         from tactile_bt.sim import kernels as sk
 
-        return [(sk.pad_kernel, (i, f2, f2, f2, f2, f1, f2, f1, i2, i1, f1, f1, f1, f1, f2, f2, i, f2, f1, f,
-                                 f1, f1, types.Array(types.uint16, 1, "C")))]
+        data = types.Tuple((f2, f2, f2, f1, f2, f1, i2, i1, f1, f1, f1, f1, f1))
+        return [(sk.foam_spread, (f1, f2, f2, i, i, i)),
+                (sk.raw_counts, (f1, f2, f1, f, f1, types.Array(types.uint16, 1, "C"))),
+                (sk.pad_contact, (f2, data, f1))]
     raise ValueError(f"unknown kernel group {group!r}; expected one of {GROUPS}")
 
 
