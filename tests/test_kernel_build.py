@@ -44,10 +44,10 @@ def test_the_build_ahead_compiles_exactly_what_a_mission_calls(tmp_path):
     assert done.returncode == 0, done.stderr
 
 
-def test_a_warm_cache_starts_no_second_process():
+def test_a_warm_cache_keeps_no_second_process_and_later_missions_check_nothing():
     run_mission(TREE, SCENE, duration=0.05)
     warmup.start()
-    assert warmup._build is None
+    assert warmup._build is None and warmup._built
     warmup.finish()  # nothing to wait for
 
 

@@ -41,6 +41,8 @@ GROUPS = ("arm", "pad", "perception")
 TIMEOUT_S = 300.0
 
 _build: _Build | None = None
+#: The kernels are built (this process checked the cache, or built them): nothing to start.
+_built = False
 
 
 def _signatures(group: str) -> list:
@@ -162,9 +164,10 @@ def start() -> None:
     """On a cold cache, start the second process on the first group (no-op when the kernels are
     cached, on one core, or when a build is already running).  The process starts before the
     cache is checked, so that its start-up overlaps the check; on a warm cache it is told there
-    is nothing to build, and ends."""
-    global _build
-    if _build is not None or (os.cpu_count() or 1) < 2:
+    is nothing to build, and ends.  Once the kernels are known to be built, later calls in this
+    process return at once."""
+    global _build, _built
+    if _built or _build is not None or (os.cpu_count() or 1) < 2:
         return
     try:
         build = _Build()
@@ -172,6 +175,7 @@ def start() -> None:
         return
     if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
         build.stop_giving()
+        _built = True
         return
     build.give()
     _build = build
@@ -200,7 +204,7 @@ def finish(idle: Callable[[], object] | None = None) -> None:
     started one) takes from too, until none is left; then wait for the second process's,
     calling ``idle`` first if it is still at work (say, to import what the run needs later).
     Without a started build: nothing (the first call compiles)."""
-    global _build
+    global _build, _built
     build, _build = _build, None
     if build is None:
         return
@@ -211,6 +215,7 @@ def finish(idle: Callable[[], object] | None = None) -> None:
     if idle is not None and not all(event.is_set() for event in build.done.values()):
         idle()
     build.end(deadline)
+    _built = True
 
 
 def _main(argv: list[str]) -> int:
