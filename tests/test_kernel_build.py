@@ -82,3 +82,40 @@ def test_a_first_run_on_an_empty_cache_builds_on_two_processes_and_gives_the_sam
     assert outputs[0] == outputs[1]
     cached = {p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi")}
     assert {"kernels.arm_step", "kernels.largest_region", "kernels.pad_contact", "kernels.raw_counts"} <= cached
+
+
+def _fake_build(monkeypatch, child: str) -> list:
+    """A build whose second process runs ``child`` (Python source), with this process's
+    compiles recorded instead of done; returns the record."""
+    built = []
+    monkeypatch.setattr(warmup, "_command", lambda *groups: [sys.executable, "-c", child])
+    monkeypatch.setattr(warmup, "compile_group", built.append)
+    monkeypatch.setattr(warmup, "TIMEOUT_S", 60.0)
+    monkeypatch.setattr(warmup, "_built", False)
+    build = warmup._Build()
+    build.give()
+    monkeypatch.setattr(warmup, "_build", build)
+    return built
+
+
+def test_a_group_the_second_process_dies_on_is_built_here(monkeypatch):
+    built = _fake_build(monkeypatch, "import sys; sys.stdin.readline(); sys.exit(3)")
+    warmup.finish()
+    assert sorted(built) == sorted(warmup.GROUPS)
+    assert warmup._built and warmup._build is None
+
+
+def test_a_second_process_that_reports_nonsense_does_not_stall_the_run(monkeypatch):
+    """Lines that name no group still hand out the next one, and what was never reported is
+    built here."""
+    child = "import sys\nfor line in sys.stdin:\n    print('noise ' + line.strip(), flush=True)\n"
+    built = _fake_build(monkeypatch, child)
+    warmup.finish()
+    assert sorted(built) == sorted(warmup.GROUPS)
+
+
+def test_groups_the_second_process_reports_are_not_built_again(monkeypatch):
+    child = "import sys\nfor line in sys.stdin:\n    print(line.strip(), flush=True)\n"
+    built = _fake_build(monkeypatch, child)
+    warmup.finish()
+    assert len(built) == len(set(built)) < len(warmup.GROUPS)  # the second process took at least one

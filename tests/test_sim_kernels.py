@@ -307,4 +307,4 @@ def test_the_pad_and_arm_kernels_are_compiled_once_for_every_scene():
         world.sense()
         world.move(np.zeros(6), 0.004)
     assert len(sk.pad_contact.signatures) == len(sk.foam_spread.signatures) == len(sk.raw_counts.signatures) == 1
-    assert len(rk.arm_step.signatures) == 1
+    assert len(rk.arm_step.signatures) == len(rk.rates_fast.signatures) == 1

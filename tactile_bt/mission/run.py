@@ -118,7 +118,7 @@ def run_mission(
         Blackboard keys the tree reads, written before it starts, as ``--blackboard``; only with a
         tree file.
     """
-    kernel_build.start()  # on a cold kernel cache: the arm's kernels compile in a second process
+    kernel_build.start()  # on a cold kernel cache: a second process starts compiling kernels
     tree, scene = _resolve(tree, scene, overrides, params, blackboard)
     scan = _scan_settings(tree, scene, reconstruct, scan_region)
     duration = float(scene.duration_s if duration is None else duration)

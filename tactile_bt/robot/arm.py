@@ -177,8 +177,6 @@ class CompliantArm(EquilibriumSolverMixin):
         self._arm_key: tuple = ()
         self._arm_packed = np.zeros(kernels.ARM_SIZE)
         self._io = np.zeros(kernels.IO_SIZE)
-        self._io_q_eq = self._io[kernels.I_QEQ:kernels.I_QEQ + 7]
-        self._io_twist = self._io[kernels.I_TWIST:kernels.I_TWIST + 6]
         self._out = np.zeros(kernels.OUT_SIZE)
         #: Default contact model of :meth:`step` and :meth:`move` (a :data:`WrenchFn`), e.g. set
         #: by the world to the pad-object contact; ``None``: no contact.
@@ -395,8 +393,8 @@ class CompliantArm(EquilibriumSolverMixin):
         io[K.I_TOL] = self.tol
         io[K.I_ITER] = self.max_iter
         io[K.I_RADIUS] = self.pad_radius
-        if mode == 2.0 and not K.rates_fast(self._io_q_eq, self._io_twist, self.kin.packed, self._arm_packed,
-                                            float(dt), self.ik_damping, self.sigma_threshold, out):
+        if mode == 2.0 and not K.rates_fast(io[K.I_QEQ:K.I_QEQ + 7], io[K.I_TWIST:K.I_TWIST + 6], self.kin.packed,
+                                            self._arm_packed, io[K.I_DT], io[K.I_DAMP], io[K.I_EPS], out):
             return False  # (the Python solve's saturation loop)
         status = contact.arm_step(self.kin.packed, self._arm_packed, io, out)
         if mode == 2.0:

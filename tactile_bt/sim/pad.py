@@ -132,7 +132,7 @@ class SensorModel:
             self._spread_cols = _gaussian_band(pad.cols, p.foam_spread)
             radius = max(1, int(np.ceil(2.5 * p.foam_spread)))
         self._spread_radius = radius
-        # What the compiled kernel reads (types fixed: float64 / int64 C arrays, writable).
+        # What the compiled kernels read (types fixed: float64 / int64 C arrays, writable).
         self._padf = np.zeros(kernels.PAD_SIZE)
         self._padf[kernels.PF_REACH] = pad.pitch * np.sqrt(0.5)  # no point of a tactel is farther from its centre
         self._padf[kernels.PF_MARGIN] = self.BROAD_PHASE_MARGIN
@@ -148,10 +148,7 @@ class SensorModel:
         self._raw = np.zeros(n, dtype=np.uint16)
         self._wK = np.zeros(42)
         self._T = np.eye(4)
-        # The arm step's work array, and its trial pose and the contact there as views of it.
-        self._arm_work = np.zeros(arm_kernels.WORK_SIZE)
-        self._arm_T = self._arm_work[arm_kernels.W_TT:arm_kernels.W_TT + 16].reshape(4, 4)
-        self._arm_wK = self._arm_work[arm_kernels.W_WT:arm_kernels.W_WT + 42]
+        self._arm_work = np.zeros(arm_kernels.WORK_SIZE)  # the arm step's work array
         self._args = None
         self._cal_of = None
         self._cal = np.zeros((3, n))
@@ -217,7 +214,7 @@ class SensorModel:
         job[1] = 0.0
         deepest = kernels.pad_contact(self._T, self._args, self._wK)
         if self._spread_rows is not None:
-            kernels.foam_spread(self._force, self._Gr, self._Gc, self._spread_radius, self.pad.rows, self.pad.cols)
+            kernels.foam_spread(self._force, self._Gr, self._Gc, self._spread_radius, *self.pad.shape)
         return deepest
 
     def _counts(self, gain: float) -> None:
@@ -286,7 +283,9 @@ class SensorModel:
         :func:`tactile_bt.robot.kernels.arm_step` (the packed model, state and output arrays)
         and the pad's contact at each of its trial poses, in turn.  Returns the step's status."""
         self._prepare(None, objects)
-        step, work, T, wK = arm_kernels.arm_step, self._arm_work, self._arm_T, self._arm_wK
+        step, work = arm_kernels.arm_step, self._arm_work
+        T = work[arm_kernels.W_TT:arm_kernels.W_TT + 16].reshape(4, 4)  # the trial pose, and the contact there
+        wK = work[arm_kernels.W_WT:arm_kernels.W_WT + 42]
         contact, data, job = kernels.pad_contact, self._args, self._job
         job[0] = 0.0
         job[1] = 1.0
@@ -323,7 +322,7 @@ class PadContact:
 
     Called with a pose it returns ``(wrench_g, K_x)`` (:meth:`SensorModel.contact`), like any
     contact model of :mod:`tactile_bt.robot.equilibrium`; :meth:`arm_step` lets
-    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in the compiled kernel.
+    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in compiled kernels.
 
     Parameters
     ----------

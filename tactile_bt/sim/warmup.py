@@ -33,14 +33,15 @@ from typing import Callable
 
 __all__ = ["start", "finish", "compile_group", "is_cached", "GROUPS"]
 
-#: The kernel groups, in the order they are taken from the queue (largest first); the last
-#: function of each is the one the simulator or perception calls.
+#: The kernel groups, in the order they are taken from the queue (largest first).
 GROUPS = ("arm", "pad", "perception")
 
-#: Longest wait (s) for the second process; after it, this process compiles what is missing.
+#: Longest wait (s) for the second process; after it, it is stopped and this process compiles
+#: what it did not report.
 TIMEOUT_S = 300.0
 
 _build: _Build | None = None
+_start_lock = threading.Lock()
 #: The kernels are built (this process checked the cache, or built them): nothing to start.
 _built = False
 
@@ -99,11 +100,17 @@ def is_cached(dispatcher, signature) -> bool:
 
 
 class _Build:
-    """The second process, the queue of groups both processes take from, and which are built."""
+    """The second process, the queue of groups both processes take from, and which are built.
+
+    The second process reads the group to build from its standard input, one name per line, and
+    writes each name back when the group is built, on a pipe of its own (anything else it prints
+    goes to its standard error).  A group it was given but never reported (it died, or hung past
+    the deadline) is built by :func:`finish` in this process."""
 
     def __init__(self):
         self._lock = threading.Lock()
         self._queue = list(GROUPS)
+        self.built: set[str] = set()
         self.done = {group: threading.Event() for group in GROUPS}
         self.process = subprocess.Popen(_command(), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                         stderr=subprocess.DEVNULL, text=True)
@@ -113,6 +120,12 @@ class _Build:
         """The next group nobody builds yet (None: none left)."""
         with self._lock:
             return self._queue.pop(0) if self._queue else None
+
+    def mark(self, group: str) -> None:
+        """``group`` is built."""
+        with self._lock:
+            self.built.add(group)
+        self.done[group].set()
 
     def give(self) -> None:
         """Give the second process the next group, or tell it there is none (it then ends)."""
@@ -130,10 +143,10 @@ class _Build:
 
     def _read(self) -> None:
         for line in self.process.stdout:
-            event = self.done.get(line.strip())
-            if event is not None:
-                event.set()
-                self.give()
+            group = line.strip()
+            if group in self.done:
+                self.mark(group)
+            self.give()  # (a line that names no group: the next one all the same)
         for event in self.done.values():  # the process ended: nothing more to wait for
             event.set()
         self.process.wait()
@@ -160,26 +173,35 @@ class _Build:
             self.process.wait()
 
 
-def start() -> None:
-    """On a cold cache, start the second process on the first group (no-op when the kernels are
-    cached, on one core, or when a build is already running).  The process starts before the
-    cache is checked, so that its start-up overlaps the check; on a warm cache it is told there
-    is nothing to build, and ends.  Once the kernels are known to be built, later calls in this
-    process return at once."""
-    global _build, _built
-    if _built or _build is not None or (os.cpu_count() or 1) < 2:
-        return
+def _cores() -> int:
+    """The cores this process may run on."""
     try:
-        build = _Build()
-    except OSError:  # no second process: this one compiles everything, as without start()
-        return
-    if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
-        build.stop_giving()
-        _built = True
-        return
-    build.give()
-    _build = build
-    atexit.register(_stop)
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # (not on every platform)
+        return os.cpu_count() or 1
+
+
+def start() -> None:
+    """On a cold cache, start the second process on the first group.  Nothing happens on one
+    core, when a build is already running, or once this process knows the kernels are built.
+    The process starts before the cache is checked, so that its start-up overlaps the check; on
+    a warm cache it is told there is nothing to build, and ends.  The check looks at the last
+    function of each group, which :func:`compile_group` builds last."""
+    global _build, _built
+    with _start_lock:
+        if _built or _build is not None or _cores() < 2:
+            return
+        try:
+            build = _Build()
+        except OSError:  # no second process: this one compiles everything, as without start()
+            return
+        if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
+            build.stop_giving()
+            _built = True
+            return
+        build.give()
+        _build = build
+        atexit.register(_stop)
 
 
 def _stop() -> None:
@@ -190,7 +212,7 @@ def _stop() -> None:
 
 def _command(*groups: str) -> list[str]:
     """The second process: this Python compiling ``groups`` (none: the groups named on its
-    standard input, one per line, until it closes) of the tactile_bt this process runs (its
+    standard input, as :class:`_Build` says) of the tactile_bt this process runs (its
     directory first on the path: numba's cache is per source file, and ``python -m`` would put
     the working directory first, where another copy may be)."""
     root = str(Path(__file__).resolve().parents[2])
@@ -202,29 +224,47 @@ def _command(*groups: str) -> list[str]:
 def finish(idle: Callable[[], object] | None = None) -> None:
     """Compile groups here, taking them from the queue the second process (if :func:`start`
     started one) takes from too, until none is left; then wait for the second process's,
-    calling ``idle`` first if it is still at work (say, to import what the run needs later).
-    Without a started build: nothing (the first call compiles)."""
+    calling ``idle`` first if it is still at work (say, to import what the run needs later),
+    and build here any group it did not report.  Without a started build: nothing (the first
+    call compiles)."""
     global _build, _built
-    build, _build = _build, None
+    with _start_lock:
+        build, _build = _build, None
     if build is None:
         return
     deadline = time.monotonic() + TIMEOUT_S
-    while (group := build.take()) is not None:
-        compile_group(group)
-        build.done[group].set()
-    if idle is not None and not all(event.is_set() for event in build.done.values()):
-        idle()
-    build.end(deadline)
-    _built = True
+    try:
+        while (group := build.take()) is not None:
+            compile_group(group)
+            build.mark(group)
+        if idle is not None and not all(event.is_set() for event in build.done.values()):
+            idle()
+        build.end(deadline)
+        for group in GROUPS:
+            if group not in build.built:
+                compile_group(group)
+                build.mark(group)
+        _built = True
+    finally:
+        build.stop()
 
 
 def _main(argv: list[str]) -> int:
-    for group in argv or (line.strip() for line in sys.stdin):
+    if argv:
+        for group in argv:
+            compile_group(group)
+            print(group, flush=True)
+        return 0
+    # Serving: the names go back on their own pipe; the rest of standard output to stderr.
+    report = os.fdopen(os.dup(sys.stdout.fileno()), "w")
+    sys.stdout.flush()
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
+    for line in sys.stdin:
+        group = line.strip()
         compile_group(group)
-        print(group, flush=True)
-    if not argv:  # the cache files are written: skip the interpreter's teardown (0.3-0.5 s)
-        os._exit(0)
-    return 0
+        report.write(group + "\n")
+        report.flush()
+    os._exit(0)  # the cache files are written: skip the interpreter's teardown (0.3-0.5 s)
 
 
 if __name__ == "__main__":

@@ -31,7 +31,7 @@ class World:
         self.last_force = np.zeros(sensor.params.geometry.shape)
         self.last_penetration = 0.0
         # A compliant mount feels the contact: wrench and stiffness from the pad model (and, for
-        # the arm, its whole step compiled with it).
+        # the arm, its whole step in compiled kernels).
         mount.attach(PadContact(sensor, self))
 
     @property
