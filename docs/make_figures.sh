@@ -27,6 +27,7 @@ for sc in object stone box_turned log; do
   tactile-bt view "$d" --png "docs/figures/scan_object_$sc.png"
 done
 tactile-bt bench | tee out/bench.txt
+bash docs/first_run.sh 4 | tee out/first_run.txt
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --record out/cable.tbr --out out/cable_recorded > /dev/null
 tactile-bt replay out/cable.tbr --tree trees/cable_follow.yaml | tee out/replay.txt
 python -m tactile_bt.sense.hardware.soak --seconds 10 --rate 1900 | tee out/soak.txt
