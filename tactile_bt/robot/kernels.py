@@ -78,7 +78,7 @@ __all__ = [
 #: Options of every kernel: machine code cached on disk, numpy's error model (1/0 = inf, no
 #: exception checks), IEEE arithmetic (no fastmath).
 OPTS = dict(cache=True, error_model="numpy", nogil=True)
-#: Options of a small helper that one entry point calls: inlined at numba's level.
+#: Options of a small helper with one caller: inlined at numba's level.
 INLINE = dict(OPTS, inline="always")
 
 # Packed kinematic model (pack_kinematics): DH d, a, cos(alpha), sin(alpha); base and mount
