@@ -19,11 +19,38 @@ from tactile_bt.errors import TactileBtError
 __all__ = ["main", "console"]
 
 
+def _load_plugins(args) -> tuple[str, ...]:
+    """Import the ``--plugin`` modules (before any tree is read); return them as a worker imports
+    them (files as absolute paths)."""
+    from tactile_bt.tree.registry import import_plugin, load_entry_points
+
+    load_entry_points()
+    specs = []
+    for spec in getattr(args, "plugin", None) or ():
+        import_plugin(spec)
+        is_file = spec.endswith(".py") or "/" in spec or "\\" in spec
+        specs.append(str(Path(spec).resolve()) if is_file else spec)
+    return tuple(specs)
+
+
+def _shipped(given: str) -> str:
+    """``given``, or the shipped file it names where no such file is here (with a note)."""
+    from tactile_bt import shipped
+
+    found = shipped.resolve(given)
+    if str(found) != str(given):
+        _note(f"{given}: using the file that ships with tactile_bt, {found} "
+              "('tactile-bt examples --copy DIR' makes copies to edit)")
+    return str(found)
+
+
 def _cmd_run(args) -> int:
     from tactile_bt.sim import warmup
 
     warmup.start()  # first, so a cold kernel cache compiles while the rest is imported
     from tactile_bt.mission.run import calibration_path, run_mission
+
+    _load_plugins(args)
 
     if args.record is not None:  # before the mission: never overwrite a file unasked
         check_output(args.record, args.force)
@@ -32,7 +59,7 @@ def _cmd_run(args) -> int:
 
     progress = Progress(args.duration or 0.0, unit="s", label="mission time")
     try:
-        result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
+        result = run_mission(_shipped(args.tree), _shipped(args.scene), duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
                              orientation_method=args.orientation, via_emulator=args.via_emulator,
                              recording=args.record, reconstruct=args.reconstruct,
@@ -52,9 +79,10 @@ def _cmd_run(args) -> int:
 def _cmd_replay(args) -> int:
     from tactile_bt.mission.replay import replay_mission
 
+    _load_plugins(args)
     try:
         with one_line_warnings():
-            result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
+            result = replay_mission(_shipped(args.tree), args.recording, calibration=args.calibration, speed=args.speed,
                                     orientation_method=args.orientation, out=args.out)
     except OSError as exc:  # an unreadable recording or calibration file
         print(f"error: {exc}", file=sys.stderr)
@@ -75,7 +103,8 @@ def _cmd_tree(args) -> int:
 
     if args.dot:  # before any work
         check_output(args.dot, force=True, option="--dot", create_parent=True)
-    tree = load_tree(args.tree, params=args.param)
+    _load_plugins(args)
+    tree = load_tree(_shipped(args.tree), params=args.param)
     print(py_trees.display.unicode_tree(tree.root))
     if args.params:
         print(format_parameters(tree))
@@ -107,6 +136,33 @@ def _cmd_bench(args) -> int:
         from tactile_bt.experiments.bench import format_bench
 
         print(format_bench(figures))
+    return 0
+
+
+def _cmd_examples(args) -> int:
+    from tactile_bt import shipped
+
+    if args.copy:
+        try:
+            written = shipped.copy_to(args.copy, force=args.force)
+        except FileExistsError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        print(f"copied {len(written)} files to {args.copy}: " + ", ".join(
+            f"{args.copy}/{folder}/" for folder in shipped.FOLDERS if (Path(args.copy) / folder).is_dir()))
+        print(f"  e.g. tactile-bt run {args.copy}/trees/cable_follow.yaml --scene {args.copy}/sim/cable.yaml --out out/cable")
+        return 0
+    files = shipped.listing()
+    print(f"tactile_bt ships these files (in {shipped.root()}); a command given a relative path such as "
+          "sim/cable.yaml uses them where no such file is in the current folder:")
+    folder = None
+    for f in files:
+        top = f.relative.split("/", 1)[0]
+        if top != folder:
+            folder = top
+            print(f"\n{folder}/  {shipped.FOLDERS[folder]}")
+        print(f"  {f.relative:<40} {f.summary if len(f.summary) <= 90 else f.summary[:89] + '…'}")
+    print("\n'tactile-bt examples --copy DIR' copies them all into DIR to edit.")
     return 0
 
 
@@ -184,6 +240,7 @@ def _cmd_sweep(args) -> int:
     from tactile_bt.experiments.sweep import RESULTS, format_summary, load_spec, run_sweep
     from tactile_bt.progress import Progress
 
+    plugins = _load_plugins(args)
     spec = load_spec(args.spec)  # before anything runs: errors with file:line:column
     start = _executor(args)
     out = check_output_dir(args.out)
@@ -200,7 +257,7 @@ def _cmd_sweep(args) -> int:
 
     try:
         result = run_sweep(spec, out, executor=start, keep_runs=args.keep_runs, retry_errors=args.retry_errors,
-                           progress=progress, on_start=on_start)
+                           progress=progress, on_start=on_start, plugins=plugins)
     except KeyboardInterrupt:
         progress.close()
         return _interrupted(f"the finished runs are in {out / RESULTS}; the same command goes on from there")
@@ -283,6 +340,13 @@ def _executor_options(parser: argparse.ArgumentParser) -> None:
                             "same files at the same paths)")
 
 
+def _plugin_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
+                        help="import MODULE (a module name, or the path of a .py file) first, so that the node "
+                             "types it registers can be used in the tree (repeatable; installed plugins declare "
+                             "the entry-point group tactile_bt.behaviours and need no option)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from tactile_bt import __version__
 
@@ -315,6 +379,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="set a blackboard key the tree reads before it starts, e.g. /goal/pressure=1800 (repeatable)")
     run.add_argument("--out", required=True,
                      help="output directory; the outputs of an earlier run there are replaced")
+    _plugin_option(run)
     run.set_defaults(func=_cmd_run)
 
     replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses "
@@ -328,6 +393,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--orientation", choices=("moments", "hough"), default="moments",
                         help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
+    _plugin_option(replay)
     replay.set_defaults(func=_cmd_replay)
 
     tree = sub.add_parser("tree", help="validate and print a YAML tree")
@@ -337,6 +403,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="also print every node's parameters: values in SI units, units and where they come from")
     tree.add_argument("--param", action="append", default=[], metavar="NODE.PARAM=VALUE",
                       help="set a parameter as 'run --param' does, to check it (repeatable)")
+    _plugin_option(tree)
     tree.set_defaults(func=_cmd_tree)
 
     view = sub.add_parser("view", help="show a mission's contacts, path and scene in 3-D")
@@ -376,6 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="also write each run's outputs (report.json, log.npz, errors.png) to DIR/runs/RUN_ID/")
     sweep.add_argument("--retry-errors", action="store_true",
                        help="run the runs whose row in DIR/results.csv is an error again")
+    _plugin_option(sweep)
     sweep.set_defaults(func=_cmd_sweep)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
@@ -384,6 +452,13 @@ def build_parser() -> argparse.ArgumentParser:
     acc.add_argument("--json", action="store_true", help="print JSON instead of tables")
     acc.add_argument("--png", default=None, help="also draw the comparison like the paper's Fig. 4")
     acc.set_defaults(func=_cmd_accuracy)
+
+    examples = sub.add_parser("examples", help="list the trees, scenes and studies that ship with tactile_bt, "
+                                                "or copy them to edit")
+    examples.add_argument("--copy", default=None, metavar="DIR", help="copy every shipped file into DIR "
+                                                                      "(DIR/trees, DIR/sim, DIR/studies)")
+    examples.add_argument("--force", action="store_true", help="with --copy: overwrite files that exist in DIR")
+    examples.set_defaults(func=_cmd_examples)
 
     try:
         from tactile_bt.sense.hardware.cli import add_sensor_subcommands

@@ -30,16 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt import defaults
+from tactile_bt import defaults, shipped
 
 __all__ = ["run_bench", "format_bench", "bench_reconstruction", "bench_sweep", "bench_mission", "bench_scan",
            "bench_first_run"]
 
-ROOT = Path(__file__).resolve().parents[2]
-TREE = ROOT / "trees" / "cable_follow.yaml"
-SCENE = ROOT / "sim" / "cable.yaml"
-SCAN_TREE = ROOT / "trees" / "surface_scan_stripes.yaml"
-SCAN_SCENE = ROOT / "sim" / "scan_ellipsoid.yaml"
+#: The folder the running tactile_bt is imported from (PYTHONPATH of the fresh processes).
+IMPORT_ROOT = Path(__file__).resolve().parents[2]
+TREE = shipped.path("trees/cable_follow.yaml")
+SCENE = shipped.path("sim/cable.yaml")
+SCAN_TREE = shipped.path("trees/surface_scan_stripes.yaml")
+SCAN_SCENE = shipped.path("sim/scan_ellipsoid.yaml")
 #: The cable scene with the pad on the ideal Cartesian mount instead of the compliant arm.
 IDEAL = ["mount.type=cartesian"]
 
@@ -243,7 +244,7 @@ def bench_first_run(duration: float | None = None, command: list[str] | None = N
                           "--out", out]
         if duration is not None and command is None:
             cmd += ["--duration", f"{duration:g}"]
-        path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
+        path = os.pathsep.join(p for p in (str(IMPORT_ROOT), os.environ.get("PYTHONPATH", "")) if p)
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=path)
         cold, sim = _timed_run(cmd, env, out)
         view = None
@@ -272,11 +273,11 @@ def bench_mesh_scene() -> dict:
     from tactile_bt.sim.scene import load_scene
 
     started = time.perf_counter()
-    scene = load_scene(ROOT / "sim" / "object.yaml")
+    scene = load_scene(shipped.path("sim/object.yaml"))
     first = time.perf_counter() - started
     grid = next(o for o in scene.objects if isinstance(o, mesh_object.MeshObject)).grid
     started = time.perf_counter()
-    load_scene(ROOT / "sim" / "object.yaml")
+    load_scene(shipped.path("sim/object.yaml"))
     return {"first_load_s": first, "sdf_grid_build_s": grid.build_time_s,
             "cached_load_s": time.perf_counter() - started, "grid_points": int(grid.values.size)}
 
@@ -320,7 +321,7 @@ def _warm_up() -> None:
     """One short mission, so that a worker has imported and compiled what the runs use."""
     from tactile_bt.mission.run import run_mission
 
-    run_mission(ROOT / "trees" / "force_hold.yaml", ROOT / "sim" / "pen.yaml", duration=0.1, seed=0)
+    run_mission(shipped.path("trees/force_hold.yaml"), shipped.path("sim/pen.yaml"), duration=0.1, seed=0)
 
 
 def bench_sweep(runs: int = 8, duration: float = 2.0, workers: int = 2, repeats: int = 2) -> dict:
@@ -334,7 +335,7 @@ def bench_sweep(runs: int = 8, duration: float = 2.0, workers: int = 2, repeats:
     from tactile_bt.experiments.executors import DaskExecutor, InProcess, dask_available
     from tactile_bt.experiments.sweep import SweepSpec, execute, plan
 
-    tree, scene = ROOT / "trees" / "force_hold.yaml", ROOT / "sim" / "pen.yaml"
+    tree, scene = shipped.path("trees/force_hold.yaml"), shipped.path("sim/pen.yaml")
     spec = SweepSpec(file="<bench>", tree=str(tree), tree_label="trees/force_hold.yaml",
                      scenes=(("sim/pen.yaml", str(scene)),), seeds=tuple(range(runs)), duration=duration)
     todo = plan(spec)

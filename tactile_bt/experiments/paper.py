@@ -16,11 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt import defaults
+from tactile_bt import defaults, shipped
 
 __all__ = ["Experiment", "EXPERIMENTS", "run_paper", "format_tables"]
 
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @dataclass(frozen=True)
@@ -65,7 +64,7 @@ def _trial(args) -> dict:
     exp, seed, duration, keep_log = args
     from tactile_bt.mission.run import run_mission
 
-    result = run_mission(ROOT / exp.tree, ROOT / exp.scene, duration=duration, seed=seed,
+    result = run_mission(shipped.path(exp.tree), shipped.path(exp.scene), duration=duration, seed=seed,
                          overrides=list(exp.overrides))
     r = result.summary
     out = {"key": exp.key, "seed": seed, "status": r.status,
@@ -146,7 +145,7 @@ def run_roll(duration: float = 12.0, seed: int = 0) -> dict:
 
     from tactile_bt.mission.run import run_mission
 
-    result = run_mission(ROOT / ROLL.tree, ROOT / ROLL.scene, duration=duration, seed=seed)
+    result = run_mission(shipped.path(ROLL.tree), shipped.path(ROLL.scene), duration=duration, seed=seed)
     log = result.log
     R0 = log["rotation"][0]
     # Rotation of the pad relative to its start, about the start's sensor axes (deg).

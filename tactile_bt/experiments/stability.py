@@ -25,11 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt import defaults
+from tactile_bt import defaults, shipped
 
 __all__ = ["Case", "stiffness_cases", "extreme_cases", "run_case", "run_stability", "format_table"]
 
-ROOT = Path(__file__).resolve().parents[2]
 TARGET = defaults.TARGET_PRESSURE_PA
 
 FORCE_HOLD = "trees/force_hold.yaml"
@@ -113,10 +112,10 @@ def run_case(case: Case) -> dict:
     from tactile_bt.tree.loader import load_tree
     from tactile_bt.mission.run import run_mission
 
-    tree = load_tree(case.name, text=case.tree_text) if case.tree_text else ROOT / case.tree
+    tree = load_tree(case.name, text=case.tree_text) if case.tree_text else shipped.path(case.tree)
     started = time.perf_counter()
     try:
-        result = run_mission(tree, ROOT / case.scene, duration=case.duration, seed=0, overrides=list(case.overrides))
+        result = run_mission(tree, shipped.path(case.scene), duration=case.duration, seed=0, overrides=list(case.overrides))
     except Exception as exc:  # a crash is a finding, not the end of the table
         return {"case": case.name, "group": case.group, "verdict": f"error: {type(exc).__name__}: {exc}",
                 "ok": False, "wall_time_s": time.perf_counter() - started, "note": case.note}
@@ -185,7 +184,7 @@ def run_rate(rate: RateRun) -> dict:
     """The cable mission at one control rate: accuracy and wall-clock time."""
     from tactile_bt.mission.run import run_mission
 
-    r = run_mission(ROOT / "trees/cable_follow.yaml", ROOT / "sim/cable.yaml", duration=rate.duration, seed=0,
+    r = run_mission(shipped.path("trees/cable_follow.yaml"), shipped.path("sim/cable.yaml"), duration=rate.duration, seed=0,
                     overrides=[f"rate_hz={rate.rate_hz}"])
     rep = r.summary
     path = rep.path_error_m

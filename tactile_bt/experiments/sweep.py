@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
+from tactile_bt import shipped
 from tactile_bt.errors import OutputPathError, TactileBtError, YamlError
 from tactile_bt.yamlutil import Located, load_located, plain
 
@@ -91,15 +92,16 @@ class SweepSpec:
 
 def _resolve(loc: Located, spec_dir: Path, what: str) -> tuple[str, str]:
     """(label, absolute path) of a file named in the spec: relative to the spec's folder, else
-    to the current directory."""
+    to the current directory, else a file that ships with tactile_bt (``trees/...``, ``sim/...``)."""
     if not isinstance(loc.value, str) or not loc.value.strip():
         raise loc.error(f"{what}: expected a file name, got {plain(loc.value)!r}")
     label = loc.value.strip()
-    candidates = [Path(label)] if Path(label).is_absolute() else [spec_dir / label, Path.cwd() / label]
+    candidates = [Path(label)] if Path(label).is_absolute() else [spec_dir / label, Path.cwd() / label,
+                                                                         shipped.resolve(label)]
     for path in candidates:
         if path.is_file():
             return label, str(path.resolve())
-    looked = " or ".join(str(p.parent) for p in candidates)
+    looked = " or ".join(str(p.parent) for p in candidates[:2]) + " or among the files tactile_bt ships"
     raise loc.error(f"{what}: file {label!r} not found (looked in {looked})")
 
 
@@ -349,13 +351,15 @@ class Run:
     timeout_s: float | None = None
     out: str | None = None                     # per-run outputs (``--keep-runs``)
     digests: tuple[str, str] = ("", "")        # sha256 of the tree's and the scene's file
+    plugins: tuple[str, ...] = ()              # ``--plugin`` modules the worker imports first
 
 
 def _digest(path: str) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def plan(spec: SweepSpec, out: str | Path | None = None, keep_runs: bool = False) -> list[Run]:
+def plan(spec: SweepSpec, out: str | Path | None = None, keep_runs: bool = False,
+         plugins: tuple[str, ...] = ()) -> list[Run]:
     """Every run of the spec, scene by scene, grid combination by combination, seed by seed.
 
     The run id hashes what decides the run's outcome: the tree's and scene's content (and the
@@ -378,7 +382,7 @@ def plan(spec: SweepSpec, out: str | Path | None = None, keep_runs: bool = False
                                 overrides=tuple(overrides), params=tuple(params.items()), seed=seed,
                                 duration=spec.duration, timeout_s=spec.timeout_s,
                                 out=str(Path(out) / "runs" / run_id) if keep_runs and out is not None else None,
-                                digests=(tree_digest, scene_digest)))
+                                digests=(tree_digest, scene_digest), plugins=tuple(plugins)))
     return runs
 
 
@@ -429,10 +433,13 @@ def execute(run: Run) -> dict:
     """Run one mission (in this process, or on a worker); its row. Every exception of the
     mission becomes a row with ``status`` ``error`` and the message (Ctrl-C still stops)."""
     from tactile_bt.mission.run import run_mission
+    from tactile_bt.tree.registry import import_plugin
 
     row = _lead(run)
     started = time.perf_counter()
     try:
+        for plugin in run.plugins:
+            import_plugin(plugin)
         for path, digest, what in ((run.tree, run.digests[0], "tree"), (run.scene, run.digests[1], "scene")):
             if digest and _digest(path) != digest:
                 raise TactileBtError(f"the {what} file {path} on this worker differs from the one the sweep was "
@@ -576,7 +583,7 @@ def _check_out(out: Path) -> None:
 
 def run_sweep(spec: SweepSpec | str | Path, out: str | Path, executor=None, keep_runs: bool = False,
               retry_errors: bool = False, progress: Callable[..., None] | None = None,
-              on_start: Callable[[int, int, str], None] | None = None) -> SweepResult:
+              on_start: Callable[[int, int, str], None] | None = None, plugins: tuple[str, ...] = ()) -> SweepResult:
     """Run every run of ``spec`` not yet in ``out/results.csv`` on ``executor`` (default: this
     process) and append its row as it finishes; then the table in the spec's order and the plot.
 
@@ -585,8 +592,9 @@ def run_sweep(spec: SweepSpec | str | Path, out: str | Path, executor=None, keep
 
     ``retry_errors`` runs the error rows again. ``progress(done, total, note=...)`` is called as
     runs finish (a :class:`tactile_bt.progress.Progress` fits); ``on_start(to_run, skipped,
-    executor_label)`` before the first run. Ctrl-C (KeyboardInterrupt) propagates after the
-    finished rows are on disk."""
+    executor_label)`` before the first run. ``plugins`` (``--plugin`` modules: names or absolute
+    paths of ``.py`` files) are imported by every run before its tree is built. Ctrl-C
+    (KeyboardInterrupt) propagates after the finished rows are on disk."""
     from tactile_bt.experiments.executors import Executor, InProcess
 
     started = time.perf_counter()
@@ -594,7 +602,7 @@ def run_sweep(spec: SweepSpec | str | Path, out: str | Path, executor=None, keep
         spec = load_spec(spec)
     out = Path(out)
     _check_out(out)
-    runs = plan(spec, out, keep_runs)
+    runs = plan(spec, out, keep_runs, plugins)
     table = ResultsTable(out / RESULTS, [*LEAD, *spec.grid_keys])
     existing = table.load()
     done = {k for k, row in existing.items() if not (retry_errors and row.get("status") == "error")}

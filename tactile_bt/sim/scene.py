@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from tactile_bt import defaults
+from tactile_bt import defaults, shipped
 from tactile_bt.sim.events import EventSchedule, ObjectEvent
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
@@ -457,8 +457,9 @@ def _wrap(value: Any, file: str) -> Located:
 
 
 def load_scene(path: str | Path, overrides: list[str] | None = None) -> Scene:
-    """Read, override and validate a scene file."""
-    root = load_located(path)
+    """Read, override and validate a scene file (``sim/NAME.yaml`` names a shipped scene where no
+    such file is here)."""
+    root = load_located(shipped.resolve(path))
     if overrides:
         apply_overrides(root, overrides)
     return build_scene(root)

@@ -64,6 +64,7 @@ import py_trees
 import yaml
 from py_trees.common import Access
 
+from tactile_bt import shipped
 from tactile_bt.errors import ParameterTypeError, ParameterValueError, TreeError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
@@ -72,7 +73,7 @@ from tactile_bt.tree.composites import Parallel, Selector, Sequence
 from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
 from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
                                         normalise_key, parameters_of, uses_pad_units)
-from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, node_types
+from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, load_entry_points, node_types
 from tactile_bt.tree.subtrees import PARAM_REF, Subtree, SubtreeExpansion, parse_subtrees
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
 
@@ -224,7 +225,10 @@ class _Builder(SubtreeExpansion):
             return self.subtree_node(body, key_loc)
         if type_name in self.subtrees:
             return self.expand(self.subtrees[type_name], body, key_loc)
-        raise located_error(key_loc, f"unknown node type {type_name!r}{did_you_mean(type_name, self.types())}", type_name)
+        hint = did_you_mean(type_name, self.types()) or (
+            " (a node type of your own? install its package, or import the module that registers it with "
+            "--plugin MODULE)")
+        raise located_error(key_loc, f"unknown node type {type_name!r}{hint}", type_name)
 
     def types(self) -> list[str]:
         return [*node_types(), *sorted(self.subtrees)]
@@ -700,6 +704,9 @@ def load_tree(path: str | Path, text: str | None = None, params=None, blackboard
         parameters, wrong types, units or values out of range, missing parameters, bad policies
         and recursion; with the option for bad ``params`` and ``blackboard``.
     """
+    load_entry_points()  # node types of installed plugins, once per process
+    if text is None:
+        path = shipped.resolve(path)  # trees/NAME.yaml names a shipped tree where no such file is here
     doc = load_located(path, text)
     if not isinstance(doc.value, dict):
         raise located_error(doc, "a tree file must be a mapping with a 'root' node")
