@@ -34,6 +34,7 @@ __all__ = [
     "SensorDisconnectedError",
     "UnknownNodeError",
     "RecordingWarning",
+    "PluginError",
 ]
 
 
@@ -150,6 +151,11 @@ class SensorConnectionError(SensorError):
 
 class SensorDisconnectedError(SensorError):
     """The port vanished while streaming (cable unplugged, emulator closed)."""
+
+
+class PluginError(InputError):
+    """A plugin (an entry point of ``tactile_bt.behaviours`` or a ``--plugin`` module) that cannot be
+    loaded, or whose node type clashes with another; the message names both sides."""
 
 
 # --------------------------------------------------------------------------- testing kit

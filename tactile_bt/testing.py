@@ -292,29 +292,34 @@ class LeafHarness:
         return self.behaviour.status
 
     def tick_until(self, done: Callable[[Status], bool] | Status = Status.SUCCESS, max_ticks: int = 10_000,
-                   features: Iterable[ContactFeatures] | None = None, frames: Iterable | None = None,
+                   features=None, frame=None, raw=None, *, frames: Iterable | None = None,
                    raw_frames: Iterable | None = None) -> int:
         """Tick until ``done(status)`` (or the status equals ``done``); return the number of ticks.
 
-        ``features``, ``frames`` (force images) or ``raw_frames`` (raw counts) may script one
-        input per tick; when the script ends first the last input stays. Raises
-        ``AssertionError`` when ``max_ticks`` pass first.
+        ``features``, ``frame`` (a force image) and ``raw`` (raw counts) are the keywords of
+        :meth:`tick`: one input, held for every tick, or a sequence of inputs, one per tick (when
+        the sequence ends first, the last input stays). ``frames`` and ``raw_frames`` are older
+        names of ``frame`` and ``raw``. Raises ``AssertionError`` when ``max_ticks`` pass first.
         """
         test = done if callable(done) else (lambda s: s == done)
-        scripts = [s for s in (features, frames, raw_frames) if s is not None]
-        if len(scripts) > 1:
-            raise ValueError("script one kind of input: features, frames or raw_frames")
-        script = iter(scripts[0]) if scripts else None
-        for n in range(1, max_ticks + 1):
-            item = next(script, None) if script is not None else None
-            if item is None:
-                status = self.tick()
-            elif features is not None:
-                status = self.tick(item)
-            elif frames is not None:
-                status = self.tick(frame=item)
-            else:
-                status = self.tick(raw=item)
+        frame = frames if frame is None else frame
+        raw = raw_frames if raw is None else raw
+        given = [(kind, value) for kind, value in (("features", features), ("frame", frame), ("raw", raw))
+                 if value is not None]
+        if len(given) > 1:
+            raise ValueError("script one kind of input: features, frame or raw")
+        kind, script = given[0] if given else (None, None)
+        if kind is not None and _one_input(kind, script):
+            self.tick(**{kind: script})  # a single input: set it once, then it stays
+            if test(self.behaviour.status):
+                return 1
+            kind, script, first = None, None, 1
+        else:
+            first = 0
+        items = iter(script) if script is not None else None
+        for n in range(first + 1, max_ticks + 1):
+            item = next(items, None) if items is not None else None
+            status = self.tick() if item is None else self.tick(**{kind: item})
             if test(status):
                 return n
         raise AssertionError(f"{self.behaviour.name}: still {self.behaviour.status} after {max_ticks} ticks")
@@ -322,8 +327,7 @@ class LeafHarness:
     def tick_for(self, seconds: float, **script) -> Status:
         """Tick for ``seconds`` of mission time (``round(seconds / dt)`` ticks, at least one),
         or until the behaviour finishes (SUCCESS or FAILURE) if that comes first; return the
-        last status. ``script``: ``features``, ``frames`` or ``raw_frames`` as in
-        :meth:`tick_until`."""
+        last status. ``script``: ``features``, ``frame`` or ``raw`` as in :meth:`tick_until`."""
         n = max(1, int(round(seconds / self.dt)))
         count = [0]
 
@@ -360,6 +364,15 @@ class LeafHarness:
     def errors(self) -> dict[str, float]:
         """Errors (measured − target, metric units) reported during the last tick."""
         return dict(self.command.errors)
+
+
+def _one_input(kind: str, value) -> bool:
+    """Whether ``value`` is one input of ``kind`` (held for every tick) rather than a script."""
+    if kind == "features":
+        return isinstance(value, ContactFeatures)
+    if isinstance(value, np.ndarray):
+        return value.ndim == 2
+    return isinstance(value, (list, tuple)) and np.ndim(value) == 2  # nested lists of numbers
 
 
 def _preorder(node: py_trees.behaviour.Behaviour) -> Iterator[py_trees.behaviour.Behaviour]:

@@ -18,8 +18,12 @@ def fresh_blackboard():
 @pytest.fixture
 def node_registry():
     """Node types registered during the test (``register_node``) are removed after it."""
-    leaves, decorators = dict(LEAVES), dict(DECORATORS)
+    from tactile_bt.tree import registry
+
+    leaves, decorators, added = dict(LEAVES), dict(DECORATORS), dict(registry._ADDED_BY)
     yield
+    registry._ADDED_BY.clear()
+    registry._ADDED_BY.update(added)
     LEAVES.clear()
     LEAVES.update(leaves)
     DECORATORS.clear()

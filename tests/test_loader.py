@@ -974,5 +974,12 @@ def test_register_a_leaf_of_your_own(node_registry):
     assert err.line == 2 and "did you mean" not in str(err) and "valid: any, all" in str(err)
     assert "did you mean 'tap'" in str(load_error("root:\n  tapp: {}\n"))
     assert describe_nodes()["tap"].parameters[1].unit == "N"
-    with pytest.raises(ValueError, match="exists"):
-        register_node("tap", Tap)
+    register_node("tap", Tap)  # the same class again (a module imported twice) is no clash
+
+    class OtherTap(Tap):
+        pass
+
+    with pytest.raises(ValueError, match=r"'tap' of .*OtherTap clashes with 'tap' of .*Tap"):
+        register_node("tap", OtherTap)
+    with pytest.raises(ValueError, match=r"clashes with 'approach' of the built-in tactile_bt\.tree\.behaviours"):
+        register_node("approach", OtherTap)

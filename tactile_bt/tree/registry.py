@@ -11,16 +11,26 @@ Layer: tree.
 
 from __future__ import annotations
 
+import importlib
+import importlib.metadata
+import importlib.util
 import inspect
 import re
+import sys
+from pathlib import Path
 from typing import Literal
 
 import py_trees
 
+from tactile_bt.errors import PluginError
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
 from tactile_bt.tree.parameters import ParameterInfo
 
-__all__ = ["COMPOSITES", "NODE_TYPES", "POLICIES", "node_types", "register_node"]
+__all__ = ["COMPOSITES", "ENTRY_POINT_GROUP", "NODE_TYPES", "POLICIES", "import_plugin", "load_entry_points",
+           "node_types", "register_node"]
+
+#: The entry-point group through which installed packages add node types (name -> class).
+ENTRY_POINT_GROUP = "tactile_bt.behaviours"
 
 #: ``parallel`` policy name -> factory of the py_trees policy (argument: ``synchronise``).
 POLICIES = {
@@ -69,18 +79,133 @@ def node_types() -> list[str]:
     return sorted((*COMPOSITES, *DECORATORS, *LEAVES, "subtree"))
 
 
-def register_node(type_name: str, cls: type, decorator: bool = False) -> None:
+def _origin(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+#: Where each node type added after import came from (for messages about clashes).
+_ADDED_BY: dict[str, str] = {}
+
+
+def register_node(type_name: str, cls: type, decorator: bool | None = None, origin: str | None = None) -> None:
     """Make a behaviour class of your own a YAML node type.
 
     Its parameters are the keyword arguments of ``cls.__init__`` with type hints (``float``,
     ``int``, ``bool``, ``str``, ``Literal[...]``, ``Sequence[float]``) and defaults, exactly as
     for the built-in leaves; a decorator class takes its child as the first argument ``child``.
+
+    Parameters
+    ----------
+    type_name : str
+        The name trees use for it (an identifier, not yet taken).
+    cls : type
+        A :class:`py_trees.behaviour.Behaviour` subclass, usually a
+        :class:`~tactile_bt.tree.TactileBehaviour`.
+    decorator : bool, optional
+        Register it as a decorator (it takes one child). Default: whether ``cls`` is a
+        :class:`py_trees.decorators.Decorator`.
+    origin : str, optional
+        Where the registration comes from, for messages (an entry point, a module).
+
+    Raises
+    ------
+    PluginError
+        When ``type_name`` is taken (the message names both classes), not an identifier, or
+        ``cls`` is not a behaviour class.
     """
-    if not IDENTIFIER.match(type_name):
-        raise ValueError(f"node type {type_name!r} must be an identifier")
-    if type_name in node_types():
-        raise ValueError(f"node type {type_name!r} exists already")
+    here = origin or _origin(cls)
+    if not isinstance(type_name, str) or not IDENTIFIER.match(type_name):
+        raise PluginError(f"{here}: node type {type_name!r} must be an identifier")
+    taken = {**COMPOSITES, **DECORATORS, **LEAVES, "subtree": None}
+    if type_name in taken:
+        other = taken[type_name]
+        if other is cls:
+            return  # the same class again (a module imported twice): nothing to do
+        owner = _ADDED_BY.get(type_name) or (f"the built-in {_origin(other)}" if isinstance(other, type)
+                                              else "a built-in node type")
+        raise PluginError(f"node type {type_name!r} of {here} clashes with {type_name!r} of {owner}: "
+                          "rename one of them")
     if not (isinstance(cls, type) and issubclass(cls, py_trees.behaviour.Behaviour)):
-        raise TypeError(f"{cls!r} is not a py_trees behaviour class")
+        raise PluginError(f"{here}: {cls!r} is not a py_trees behaviour class")
+    if decorator is None:
+        decorator = issubclass(cls, py_trees.decorators.Decorator)
     (DECORATORS if decorator else LEAVES)[type_name] = cls
+    _ADDED_BY[type_name] = here
     cls.node_type = type_name  # the YAML type, for messages
+
+
+_entry_points_loaded = False
+
+
+def load_entry_points(force: bool = False) -> list[str]:
+    """Register the node types that installed packages declare in the entry-point group
+    ``tactile_bt.behaviours`` (``name = "package.module:Class"``), once per process; return
+    their names. The loader calls it before it builds the first tree.
+
+    Raises
+    ------
+    PluginError
+        When an entry point cannot be imported, is not a behaviour class, or its name clashes
+        with another node type.
+    """
+    global _entry_points_loaded
+    if _entry_points_loaded and not force:
+        return []
+    _entry_points_loaded = True
+    added = []
+    for ep in sorted(importlib.metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+        dist = getattr(ep, "dist", None)
+        where = (f"entry point '{ep.name} = {ep.value}' of {dist.name} {dist.version}" if dist is not None
+                 else f"entry point '{ep.name} = {ep.value}'")
+        try:
+            cls = ep.load()
+        except Exception as exc:  # any error of the plugin's own import
+            raise PluginError(f"{where}: cannot be loaded: {type(exc).__name__}: {exc}") from exc
+        if LEAVES.get(ep.name) is cls or DECORATORS.get(ep.name) is cls:
+            continue
+        register_node(ep.name, cls, origin=where)
+        added.append(ep.name)
+    return added
+
+
+def import_plugin(spec: str) -> None:
+    """Import a module that registers node types (``--plugin``): a module name (looked up on the
+    import path and in the current folder) or the path of a ``.py`` file.
+
+    Raises
+    ------
+    PluginError
+        When the module cannot be found or raises while it is imported.
+    """
+    as_file = spec.endswith(".py") or "/" in spec or "\\" in spec
+    try:
+        if as_file:
+            path = Path(spec)
+            if not path.is_file():
+                raise PluginError(f"--plugin {spec}: no such file")
+            # Under its own name when that is free, so that an entry point naming the same module
+            # later finds it imported (and its classes the same objects).
+            name = path.stem if path.stem.isidentifier() and path.stem not in sys.modules else \
+                f"tactile_bt_plugin_{path.stem}"
+            loaded = sys.modules.get(path.stem)
+            if loaded is not None and getattr(loaded, "__file__", None) and Path(loaded.__file__).resolve() == path.resolve():
+                return
+            module_spec = importlib.util.spec_from_file_location(name, path)
+            module = importlib.util.module_from_spec(module_spec)
+            sys.modules[name] = module
+            try:
+                module_spec.loader.exec_module(module)
+            except BaseException:
+                del sys.modules[name]
+                raise
+        else:
+            if "" not in sys.path and "." not in sys.path:
+                sys.path.append("")  # the current folder, as ``python -m`` has it; after everything else
+            importlib.import_module(spec)
+    except PluginError:
+        raise
+    except ModuleNotFoundError as exc:
+        raise PluginError(f"--plugin {spec}: no module named {exc.name!r} (give a module on the import path, "
+                          "or the path of a .py file)") from exc
+    except Exception as exc:
+        raise PluginError(f"--plugin {spec}: importing it failed: {type(exc).__name__}: {exc}") from exc
