@@ -27,6 +27,7 @@ __all__ = [
     "MountError",
     "MeshError",
     "ProtocolError",
+    "SensorModuleError",
     "RecordingError",
     "ReplayError",
     "SensorError",
@@ -131,6 +132,10 @@ class MeshError(InputError):
 # --------------------------------------------------------------------------- sensor and recordings
 class ProtocolError(InputError):
     """Malformed input to the AGNI protocol's builders or decoders."""
+
+
+class SensorModuleError(InputError):
+    """An unknown tactile module, or one whose array is not the shape asked for."""
 
 
 class RecordingError(InputError):

@@ -16,6 +16,10 @@ field          meaning                                   default
 ``damping``    lwr4: joint damping (N m s/rad)            0.2 (paper Sec. V)
 =============  ========================================  =====================================
 
+Both satisfy the :class:`~tactile_bt.robot.interface.Robot` protocol (``pad_pose``,
+``send_twist``, ``stop``, ``joint_state``; ``step(dt)`` moves by the twist sent), so a mission
+loop drives them as it drives a real arm.
+
 The ideal mount follows the commanded twist exactly. The arm turns it into joint velocities by
 damped resolved rates; they move its equilibrium posture, and contact forces deflect it
 through the joint stiffness (:class:`tactile_bt.robot.arm.CompliantArm`). Its seventh joint
@@ -35,13 +39,14 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.errors import MountError
 from tactile_bt.control.spatial import integrate_spatial, make_pose
+from tactile_bt.robot.interface import JointState, SimulatedRobot
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_TYPES"]
 
 MOUNT_TYPES = ("cartesian", "lwr4")
 
-class CartesianMount:
+class CartesianMount(SimulatedRobot):
     """An ideal Cartesian mount: the pad follows the commanded base-frame twist exactly.
 
     Parameters
@@ -61,7 +66,7 @@ class CartesianMount:
         self.pose = integrate_spatial(self.pose, twist_g, dt)
 
 
-class ArmMount:
+class ArmMount(SimulatedRobot):
     """The pad on a compliant KUKA LWR 4: same interface as :class:`CartesianMount`.
 
     Parameters
@@ -124,6 +129,12 @@ class ArmMount:
         if sol is None:
             return np.zeros(7, dtype=bool), np.zeros(6)
         return sol.saturated.copy(), sol.residual.copy()
+
+    def joint_state(self) -> JointState:
+        """Joint angles, limits and the joints the last :meth:`move` held on a limit, stamped
+        with the mount's clock (the :class:`~tactile_bt.robot.interface.Robot` protocol)."""
+        q_min, q_max = self.limits
+        return JointState(self.joint_angles(), q_min, q_max, self._clock_s, self.saturation()[0])
 
     def attach(self, contact) -> None:
         """Let ``contact(T_gs) -> (wrench_g, K_x)`` deflect the arm."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tactile_bt.robot.interface import SimulatedRobot
 from tactile_bt.robot.mounts import CartesianMount
 from tactile_bt.sim.pad import PadContact, SensorModel
 
@@ -21,13 +22,16 @@ class World:
     ----------
     objects : list of SimObject
     sensor : SensorModel
-    mount : CartesianMount (or any object with ``pose`` and ``move(twist_g, dt)``)
+    mount : CartesianMount, ArmMount (a :class:`~tactile_bt.robot.interface.Robot`), or any
+        object with ``pose`` and ``move(twist_g, dt)``
     """
 
     def __init__(self, objects, sensor: SensorModel, mount) -> None:
         self.objects = list(objects)
         self.sensor = sensor
         self.mount = mount
+        # A Robot mount is moved as a live arm is: the twist sent, then a step of simulated time.
+        self._robot = isinstance(mount, SimulatedRobot)
         self.last_force = np.zeros(sensor.params.geometry.shape)
         self.last_penetration = 0.0
         # A compliant mount feels the contact: wrench and stiffness from the pad model (and, for
@@ -51,7 +55,11 @@ class World:
 
     def move(self, twist_g: np.ndarray, dt: float) -> None:
         """Move the pad by the base-frame twist for ``dt`` seconds."""
-        self.mount.move(twist_g, dt)
+        if self._robot:
+            self.mount.send_twist(twist_g)
+            self.mount.step(dt)
+        else:
+            self.mount.move(twist_g, dt)
 
     def update(self, t: float) -> list:
         """Apply the scene events due at mission time ``t`` (s), each once.

@@ -4,6 +4,7 @@ Public names (imported lazily, so ``import tactile_bt.sense.hardware`` stays che
 
     SerialTactileSensor, TactileFrame, SensorStats, SensorError, SensorConnectionError,
     SensorDisconnectedError                                    (driver, protocol)
+    TactileModule, get_module, load_registration               (modules: cell orders)
     DeviceEmulator, FaultConfig                                (emulator)
     Recorder, read_recording, replay, RecordingError,
     RecordingWarning                                           (recording)
@@ -26,6 +27,9 @@ _EXPORTS = {
     "SensorDisconnectedError": "driver",
     "TactileFrame": "protocol",
     "DatagramParser": "protocol",
+    "TactileModule": "modules",
+    "get_module": "modules",
+    "load_registration": "modules",
     "DeviceEmulator": "emulator",
     "FaultConfig": "emulator",
     "Recorder": "recording",

@@ -24,7 +24,8 @@ import numpy as np
 from tactile_bt.errors import CommandLineError
 from tactile_bt.defaults import COLS, MAX_SENSOR_RATE_HZ, ROWS
 from tactile_bt.arguments import check_output, nonnegative_int, one_line_warnings, positive_float, positive_int
-from tactile_bt.sense.hardware.options import device_rate, fault_spec
+from tactile_bt.sense.hardware.framing import EMULATED_SENSOR_TYPE
+from tactile_bt.sense.hardware.options import device_rate, fault_spec, module_name, sensor_type
 from tactile_bt.errors import OutputPathError
 
 #: Largest array the protocol carries: the configuration announces 2 * rows * cols as a u16.
@@ -60,18 +61,50 @@ def _cell_order(path: str | None, rows: int, cols: int) -> np.ndarray | None:
     return order
 
 
-def _open_sensor(args: argparse.Namespace, cell_order: np.ndarray | None):
+def _open_sensor(args: argparse.Namespace, cell_order: np.ndarray | None, registration: dict | None):
     from tactile_bt.sense.hardware.driver import SerialTactileSensor
 
     return SerialTactileSensor(args.port, baudrate=args.baudrate, rows=args.rows, cols=args.cols,
                                cell_order=cell_order, timeout=args.timeout,
-                               period=None if args.rate is None else 1.0 / args.rate)
+                               period=None if args.rate is None else 1.0 / args.rate,
+                               module=args.module, registration=registration)
 
 
-def _sensor_input(args: argparse.Namespace) -> np.ndarray | None:
-    """Check the options of stream/record that argparse cannot; return the cell order."""
+def _sensor_input(args: argparse.Namespace) -> tuple[np.ndarray | None, dict | None]:
+    """Check the options of stream/record that argparse cannot; return the cell order and the
+    registration (sensor type numbers -> module names)."""
     _check_shape(args.rows, args.cols)
-    return _cell_order(args.cell_order, args.rows, args.cols)
+    _check_module(args)
+    if args.module and args.cell_order:
+        raise CommandLineError(f"--module {args.module} --cell-order {args.cell_order}: give one of them")
+    registration = None
+    if args.registration:
+        from tactile_bt.errors import YamlError
+        from tactile_bt.sense.hardware.modules import load_registration
+
+        try:
+            registration = load_registration(args.registration)
+        except YamlError as exc:
+            raise CommandLineError(f"--registration {exc}") from None
+    return _cell_order(args.cell_order, args.rows, args.cols), registration
+
+
+def _check_module(args: argparse.Namespace) -> None:
+    """``--module`` against the array shape of ``--rows``/``--cols``."""
+    if args.module:
+        from tactile_bt.errors import SensorModuleError
+        from tactile_bt.sense.hardware.modules import get_module
+
+        try:
+            get_module(args.module).check_shape(args.rows, args.cols)
+        except SensorModuleError as exc:
+            raise CommandLineError(f"--module {args.module} --rows {args.rows} --cols {args.cols}: {exc}") from None
+
+
+def _peak(values: np.ndarray) -> str:
+    """Where a frame's largest count is: ``row R col C`` (row = sensor y, col = sensor x)."""
+    row, col = np.unravel_index(int(np.argmax(values)), values.shape)
+    return f"row {row:2d} col {col:2d}"
 
 
 def _print_stats(stats: object, file=sys.stderr) -> None:
@@ -84,14 +117,15 @@ def cmd_stream(args: argparse.Namespace) -> int:
     from tactile_bt.errors import SensorError
 
     try:
-        cell_order = _sensor_input(args)
+        cell_order, registration = _sensor_input(args)
     except CommandLineError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _on_terminate()
     try:
-        with _open_sensor(args, cell_order) as sensor:
-            print(f"streaming from {args.port}: sensor {sensor.sensor_id}, config {sensor.config}", file=sys.stderr)
+        with _open_sensor(args, cell_order, registration) as sensor:
+            print(f"streaming from {args.port}: sensor {sensor.sensor_id}, config {sensor.config}, "
+                  f"module {sensor.module or 'with --cell-order ' + args.cell_order}", file=sys.stderr)
             start = last = time.monotonic()
             count = 0
             try:
@@ -100,7 +134,8 @@ def cmd_stream(args: argparse.Namespace) -> int:
                     now = time.monotonic()
                     if now - last >= args.every:
                         print(f"t={now - start:7.2f} s  {count / (now - last):7.1f} Hz  max={int(frame.values.max()):4d}  "
-                              f"sum={int(frame.values.sum()):7d}  dev_t={frame.device_timestamp}", flush=True)
+                              f"at {_peak(frame.values)}  sum={int(frame.values.sum()):7d}  dev_t={frame.device_timestamp}",
+                              flush=True)
                         count, last = 0, now
                     if args.duration and now - start >= args.duration:
                         break
@@ -125,16 +160,17 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     try:
         check_output(args.out, args.force)
-        cell_order = _sensor_input(args)
+        cell_order, registration = _sensor_input(args)
     except (OutputPathError, CommandLineError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _on_terminate()
     code = 0
     try:
-        with _open_sensor(args, cell_order) as sensor:
+        with _open_sensor(args, cell_order, registration) as sensor:
             meta = {"port": args.port, "sensor_id": sensor.sensor_id, "device_id": sensor.config.device_id,
-                    "sensor_types": [t for t, _ in sensor.config.sensors], "source": "sensor record"}
+                    "sensor_types": [t for t, _ in sensor.config.sensors], "module": sensor.module,
+                    "source": "sensor record"}
             with Recorder(args.out, rows=args.rows, cols=args.cols, metadata=meta,
                           chunk_frames=args.chunk_frames) as rec:
                 print(f"recording {args.port} -> {args.out}", file=sys.stderr, flush=True)
@@ -166,15 +202,16 @@ def cmd_emulate(args: argparse.Namespace) -> int:
 
     try:
         rows, cols = _emulated_shape(args)
+        _check_module(argparse.Namespace(module=args.module, rows=rows, cols=cols))
     except (CommandLineError, RecordingError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     _on_terminate()
     source = args.recording or synthetic_source(rows, cols, args.rate, args.seed)
     with DeviceEmulator(source, rate_hz=args.rate, rows=rows, cols=cols, faults=args.faults,
-                        seed=args.seed, keep_log=False) as emu:
+                        seed=args.seed, keep_log=False, module=args.module, sensor_type=args.sensor_type) as emu:
         print(emu.port, flush=True)
-        print(f"emulating a {rows}x{cols} tactile module at {args.rate:g} Hz on {emu.port} "
+        print(f"emulating a {rows}x{cols} tactile module ({emu.module}) at {args.rate:g} Hz on {emu.port} "
               f"(Ctrl-C to stop)", file=sys.stderr, flush=True)
         start = time.monotonic()
         try:
@@ -241,6 +278,8 @@ _RATE_HELP = "frame rate in Hz, 0.153 to 10000 (the device period: 100 us steps)
 _DURATION_HELP = "stop after this many seconds (default: at Ctrl-C or SIGTERM)"
 _SHAPE_HELP = "tactel {} of the array (default {})"
 _RECORDING_HELP = "a recording made by 'run --record' or 'sensor record'"
+_MODULE_HELP = ("tactile module whose cell order the device sends: tactile_module_16x16_v2, or row_major "
+                "(default: row_major, unless --registration names the device's module)")
 _SPEED_HELP = "1 = the recorded pace, 2 = twice as fast (default: as fast as possible)"
 
 
@@ -251,6 +290,10 @@ def _sensor_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rows", type=positive_int, default=ROWS, help=_SHAPE_HELP.format("rows", ROWS))
     p.add_argument("--cols", type=positive_int, default=COLS, help=_SHAPE_HELP.format("columns", COLS))
     p.add_argument("--cell-order", metavar="FILE", help="device cell order: rows*cols ints (text or .npy)")
+    p.add_argument("--module", type=module_name, default=None, metavar="NAME", help=_MODULE_HELP)
+    p.add_argument("--registration", metavar="FILE",
+                   help="the reference driver's registred_devices.yaml: names the module from the sensor type "
+                        "in the device's configuration when neither --module nor --cell-order is given")
     p.add_argument("--rate", type=device_rate, default=None,
                    help=_RATE_HELP + "; sets the sensor's rate (default: as the sensor runs)")
     p.add_argument("--timeout", type=positive_float, default=1.0, help="seconds to wait for the device (default 1)")
@@ -286,6 +329,11 @@ def add_sensor_subcommands(subparsers: argparse._SubParsersAction) -> argparse.A
                         "five, e.g. 'garbage=0.01,tear=0.01' or 'all=0.01' (bitflip + tear + header at most 1); "
                         "also garbage_max=BYTES, pause_s=SECONDS")
     p.add_argument("--seed", type=nonnegative_int, default=0, help="seed of the frames and faults (default 0)")
+    p.add_argument("--module", type=module_name, default=None, metavar="NAME",
+                   help="tactile module to emulate: its words go out in its cell order (default row_major)")
+    p.add_argument("--sensor-type", type=sensor_type, default=EMULATED_SENSOR_TYPE, metavar="N",
+                   help="sensor type number the configuration answer announces, e.g. 0x1234 (default "
+                        f"{EMULATED_SENSOR_TYPE}, the reference driver's 'undefined')")
     p.add_argument("--rows", type=positive_int, default=None,
                    help=_SHAPE_HELP.format("rows", f"{ROWS}, or the recording's"))
     p.add_argument("--cols", type=positive_int, default=None,

@@ -15,14 +15,15 @@ import errno
 import threading
 import time
 from dataclasses import dataclass
-from typing import Iterator, Sequence
+from typing import Iterator, Mapping, Sequence
 
 import numpy as np
 import serial
 
-from tactile_bt.errors import SensorConnectionError, SensorDisconnectedError, SensorError
+from tactile_bt.errors import SensorConnectionError, SensorDisconnectedError, SensorError, SensorModuleError
 from tactile_bt.defaults import COLS, ROWS
 from tactile_bt.sense.hardware import protocol as P
+from tactile_bt.sense.hardware.modules import DEFAULT_MODULE, get_module, module_for_type
 from tactile_bt.sense.hardware.protocol import TactileFrame
 
 #: Default line rate in baud.  USB CDC devices (the tactile modules) ignore it; a real UART
@@ -79,7 +80,15 @@ class SerialTactileSensor:
         Tactel array shape.
     cell_order
         Device cell order: ``cell_order[k]`` is the row-major index of the k-th word sent;
-        ``None`` for row-major.
+        ``None`` for the module's (below).
+    module
+        Name of the tactile module (:mod:`tactile_bt.sense.hardware.modules`, e.g.
+        ``tactile_module_16x16_v2``), whose cell order the frames are decoded with; not with
+        ``cell_order``. Default: the module the configuration answer's sensor type names in
+        ``registration``, else row-major.
+    registration
+        Sensor type numbers -> module names
+        (:func:`~tactile_bt.sense.hardware.modules.load_registration`).
     timeout
         Seconds to wait for the configuration answer, and the default of read()/frames().
     sensor_id
@@ -108,9 +117,19 @@ class SerialTactileSensor:
         sensor_id: int | None = None,
         period: float | None = None,
         queue_frames: int = DEFAULT_QUEUE_FRAMES,
+        module: str | None = None,
+        registration: Mapping[int, str] | None = None,
     ) -> None:
         self.port, self.rows, self.cols, self.timeout = port, rows, cols, float(timeout)
+        use_config = module is None and cell_order is None
+        if module is not None:
+            if cell_order is not None:
+                raise SensorModuleError(f"give the module ({module}) or a cell order, not both")
+            cell_order = get_module(module).cell_order(rows, cols)
+        #: Name of the module whose cell order decodes the frames (None: the ``cell_order`` given).
+        self.module: str | None = module if module is not None else (DEFAULT_MODULE if use_config else None)
         self._inverse = np.argsort(P.cell_permutation(cell_order, rows, cols))
+        self._registration = registration if use_config else None
         self._parser = P.DatagramParser()
         self._cond = threading.Condition()
         self._queue: collections.deque[TactileFrame] = collections.deque(maxlen=max(1, int(queue_frames)))
@@ -131,6 +150,7 @@ class SerialTactileSensor:
             raise SensorConnectionError(f"cannot open tactile sensor port {port!r}: {exc}{hint}") from exc
         try:
             self.sensor_id = self._configure(sensor_id)
+            self._choose_module()
             if period is not None:
                 self._write(P.set_period_command(self.sensor_id, period))
             self._thread = threading.Thread(target=self._reader, name=f"tactile-reader {port}", daemon=True)
@@ -186,6 +206,21 @@ class SerialTactileSensor:
         self._parser.accept_config = False
         self._parser.stats = P.ParserStats()  # count the stream only
         return sensor_id
+
+    def _choose_module(self) -> None:
+        """Decode with the module the configuration's sensor type names in the registration,
+        when neither a module nor a cell order was given (row-major when it names none)."""
+        if not self._registration:
+            return
+        found = module_for_type(self.config.sensors[self.sensor_id - 1][0], self._registration)
+        if found is None:
+            return
+        try:
+            order = found.cell_order(self.rows, self.cols)
+        except SensorModuleError as exc:
+            raise SensorConnectionError(f"{self.port!r}: the device's configuration names {exc}") from None
+        self._inverse = np.argsort(P.cell_permutation(order, self.rows, self.cols))
+        self.module = found.name
 
     # ------------------------------------------------------------------ reader thread
     def _reader(self) -> None:

@@ -29,7 +29,9 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from tactile_bt.defaults import ADC_MAX, COLS, MAX_SENSOR_RATE_HZ, ROWS
+from tactile_bt.errors import SensorModuleError
 from tactile_bt.sense.hardware import protocol as P
+from tactile_bt.sense.hardware.modules import DEFAULT_MODULE, get_module
 from tactile_bt.sense.hardware.framing import HEADER
 from tactile_bt.sense.hardware.faults import GARBAGE_ALPHABET  # noqa: F401 - re-exported
 from tactile_bt.sense.hardware.faults import (
@@ -99,6 +101,9 @@ class DeviceEmulator:
         Streaming rate in Hz until the host sets a period.
     rows, cols, cell_order
         Array shape and device cell order (as for the driver).
+    module
+        Name of the tactile module emulated (:mod:`tactile_bt.sense.hardware.modules`): its words
+        go out in that module's cell order; not with ``cell_order``. Default: row-major.
     sensor_id, device_id, sensor_type
         Identity announced in the configuration answer.
     faults
@@ -113,8 +118,14 @@ class DeviceEmulator:
                  cols: int = COLS, cell_order: Iterable[int] | None = None, sensor_id: int = 1,
                  device_id: int = 1, sensor_type: int = P.EMULATED_SENSOR_TYPE,
                  faults: FaultConfig | str | None = None, seed: int = 0, loop: bool = True,
-                 keep_log: bool = True) -> None:
+                 keep_log: bool = True, module: str | None = None) -> None:
         self.rows, self.cols, self.sensor_id, self.device_id = rows, cols, sensor_id, device_id
+        if module is not None:
+            if cell_order is not None:
+                raise SensorModuleError(f"give the module ({module}) or a cell order, not both")
+            cell_order = get_module(module).cell_order(rows, cols)
+        #: The module emulated (None: the ``cell_order`` given).
+        self.module = module if module is not None else (DEFAULT_MODULE if cell_order is None else None)
         self.sensor_type = sensor_type
         self.period = 1.0 / float(rate_hz)
         self._order = P.cell_permutation(cell_order, rows, cols)

@@ -13,7 +13,7 @@ import math
 from tactile_bt.arguments import validator
 from tactile_bt.sense.hardware.framing import PERIOD_UNIT_S
 
-__all__ = ["device_rate", "fault_spec"]
+__all__ = ["device_rate", "fault_spec", "module_name", "sensor_type"]
 
 #: Frame rates a device period can express: 1..65535 steps of 100 us.
 MIN_RATE_HZ = 1.0 / (65535 * PERIOD_UNIT_S)
@@ -33,3 +33,26 @@ def fault_spec(text: str):
         return FaultConfig.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def module_name(text: str) -> str:
+    """``--module`` value: the name of a tactile module the driver knows
+    (:data:`~tactile_bt.sense.hardware.modules.MODULES`)."""
+    from tactile_bt.errors import SensorModuleError
+    from tactile_bt.sense.hardware.modules import get_module
+
+    try:
+        return get_module(text, "module").name
+    except SensorModuleError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("module: ")) from None
+
+
+def sensor_type(text: str) -> int:
+    """``--sensor-type`` value: a 16-bit sensor type number, decimal or ``0x`` hexadecimal."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 0xFFFF:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a sensor type number 0..0xFFFF")
+    return value
