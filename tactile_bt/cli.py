@@ -76,6 +76,60 @@ def _cmd_run(args) -> int:
     return 0 if r.ok else 1
 
 
+def _terminate_as_interrupt() -> None:
+    """SIGTERM ends the command the way Ctrl-C does (outputs written, the robot's last twist zero)."""
+    import signal
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, interrupt)
+
+
+def _cmd_live(args) -> int:
+    from tactile_bt.mission.live import run_live
+    from tactile_bt.progress import Progress
+
+    _load_plugins(args)
+    if args.record is not None:
+        from tactile_bt.mission.run import calibration_path
+
+        check_output(args.record, args.force)
+        check_output(calibration_path(args.record), args.force)
+    _terminate_as_interrupt()
+    progress = Progress(args.duration or 0.0, unit="s", label="mission time")
+    try:
+        result = run_live(_shipped(args.tree), args.sensor, args.robot, duration=args.duration, out=args.out,
+                          truth=_shipped(args.truth) if args.truth else None, record=args.record,
+                          module=args.module, orientation_method=args.orientation, progress=progress)
+    finally:
+        progress.close()
+    r = result.summary
+    print(f"{r.status}{': ' + r.reason if r.reason else ''} after {r.sim_time_s:.2f} s ({r.ticks} cycles)")
+    print("\n".join(r.summary_lines()))
+    for warning in r.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    print(f"  outputs in {args.out}")
+    return 0 if r.ok else 1
+
+
+def _cmd_twin(args) -> int:
+    import signal
+    import threading
+
+    from tactile_bt.mission.twin import serve_twin, twin_summary
+
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: stop.set())
+    out = check_output_dir(args.out)
+    result = serve_twin(_shipped(args.scene), out, seed=args.seed, duration=args.duration, module=args.module,
+                        stall_after_s=args.stall_after, stop=stop, network=args.network,
+                        announce=lambda port: print(port, flush=True))
+    print(twin_summary(result), file=sys.stderr)
+    return 0
+
+
 def _cmd_replay(args) -> int:
     from tactile_bt.mission.replay import replay_mission
 
@@ -381,6 +435,40 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output directory; the outputs of an earlier run there are replaced")
     _plugin_option(run)
     run.set_defaults(func=_cmd_run)
+
+    live = sub.add_parser("live", help="run a tree on a real sensor and arm (or on 'tactile-bt twin'), paced by "
+                                       "the sensor's frames")
+    live.add_argument("tree", help="YAML tree file")
+    live.add_argument("--sensor", required=True, metavar="PORT", help="the sensor's serial port (or the port the twin prints)")
+    live.add_argument("--robot", required=True, metavar="ROBOT.yaml",
+                      help="the robot file: backend and topics, sensor module and calibration, set-up, limits "
+                           "(docs/live.md)")
+    live.add_argument("--duration", type=positive_float, default=None,
+                      help="mission time budget in s (default: until the tree ends, or Ctrl-C)")
+    live.add_argument("--truth", default=None, metavar="SCENE",
+                      help="score the contacts against this scene's ground truth (runs against the twin)")
+    live.add_argument("--record", default=None, metavar="FILE", help="record frames and poses for 'tactile-bt replay'")
+    live.add_argument("--force", action="store_true", help="overwrite an existing --record FILE")
+    live.add_argument("--module", default=None, help="the sensor module (its cell order), overriding the robot file's")
+    live.add_argument("--orientation", choices=("moments", "hough"), default="moments",
+                      help="edge orientation method (default: moments)")
+    live.add_argument("--out", required=True, help="output directory")
+    _plugin_option(live)
+    live.set_defaults(func=_cmd_live)
+
+    twin = sub.add_parser("twin", help="serve a scene's simulator in real time as hardware: a ROS 2 arm and a "
+                                       "serial pad on a pty")
+    twin.add_argument("scene", help="YAML scene file")
+    twin.add_argument("--out", required=True, help="where robot.yaml, calibration.npz and (at the end) twin.npz go")
+    twin.add_argument("--seed", type=nonnegative_int, default=None, help="seed of the simulated sensor")
+    twin.add_argument("--duration", type=positive_float, default=None, help="end after this long in s (default: "
+                                                                            "at SIGINT or SIGTERM)")
+    twin.add_argument("--module", default=None, help="the tactile module to emulate (its cell order)")
+    twin.add_argument("--stall-after", type=positive_float, default=None, metavar="S",
+                      help="fault injection: the sensor falls silent after S seconds")
+    twin.add_argument("--network", action="store_true", help="let ROS 2 discover peers on the network "
+                                                            "(default: this host only)")
+    twin.set_defaults(func=_cmd_twin)
 
     replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses "
                                            "('sensor replay' only prints the frames)")

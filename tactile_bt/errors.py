@@ -36,6 +36,7 @@ __all__ = [
     "UnknownNodeError",
     "RecordingWarning",
     "PluginError",
+    "RobotConnectionError",
 ]
 
 
@@ -144,6 +145,10 @@ class RecordingError(InputError):
 
 class ReplayError(InputError):
     """A replay cannot start: its calibration or pace is unusable; the message names which."""
+
+
+class RobotConnectionError(TactileBtError, RuntimeError):
+    """A robot that cannot be reached or stopped answering (no pose, ROS 2 missing)."""
 
 
 class SensorError(TactileBtError, RuntimeError):

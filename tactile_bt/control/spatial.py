@@ -22,6 +22,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 __all__ = [
+    "spatial_to_point",
+    "point_to_spatial",
     "make_pose",
     "invert",
     "skew",
@@ -78,6 +80,20 @@ def body_to_spatial(T_gs: np.ndarray, twist_s: np.ndarray) -> np.ndarray:
     vx, vy, vz = (R @ twist_s[:3]).tolist()
     px, py, pz = T_gs[:3, 3].tolist()
     return np.array((vx + py * wz - pz * wy, vy + pz * wx - px * wz, vz + px * wy - py * wx, wx, wy, wz))
+
+
+def spatial_to_point(twist_g: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The spatial twist ``[v; w]`` (base frame) as the velocity of ``point`` (base frame, m) and
+    the angular velocity: ``[v + w x point; w]``, the form a Cartesian twist controller (MoveIt
+    Servo, a twist controller) takes for its end-effector frame whose origin is ``point``."""
+    v, w = np.asarray(twist_g[:3], dtype=float), np.asarray(twist_g[3:], dtype=float)
+    return np.concatenate([v + np.cross(w, point), w])
+
+
+def point_to_spatial(twist_point: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`spatial_to_point`: ``[v_point - w x point; w]``."""
+    v, w = np.asarray(twist_point[:3], dtype=float), np.asarray(twist_point[3:], dtype=float)
+    return np.concatenate([v - np.cross(w, point), w])
 
 
 def exp_twist(twist: np.ndarray, dt: float) -> np.ndarray:

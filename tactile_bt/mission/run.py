@@ -28,7 +28,7 @@ from tactile_bt.mission.result import MissionResult, finish_mission
 from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
-__all__ = ["run_mission", "calibration_path", "MAX_CYCLES"]
+__all__ = ["run_mission", "calibration_path", "scene_table_height", "MAX_CYCLES"]
 
 
 def calibration_path(recording: str | Path) -> Path:
@@ -206,15 +206,21 @@ def run_mission(
     return result
 
 
-def _write_setup(scene) -> float:
-    """The robot's known set-up on the blackboard, for the tree: the height of the scene's
-    table (``/setup/table_z_m``, m, world z; NaN when it has none). Never the object.
-    Returns the height written."""
+def scene_table_height(scene) -> float:
+    """The height of the scene's table top (m, world z; NaN when it has none): the part of the
+    robot's set-up a tree may know. Never the object."""
     from tactile_bt.sim.objects import Table
-    from tactile_bt.tree.behaviours.table import write_table_height
 
     table = next((o for o in scene.objects if isinstance(o, Table)), None)
-    height = math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2])
+    return math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2])
+
+
+def _write_setup(scene) -> float:
+    """The robot's known set-up on the blackboard, for the tree: the height of the scene's
+    table (``/setup/table_z_m``). Returns the height written."""
+    from tactile_bt.tree.behaviours.table import write_table_height
+
+    height = scene_table_height(scene)
     write_table_height(height)
     return height
 
