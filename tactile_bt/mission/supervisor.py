@@ -207,7 +207,6 @@ class Supervisor:
         self.limits = SupervisorLimits() if limits is None else limits
         self._publish = publish
         self._retreat = np.array([0.0, 0.0, -self.limits.retreat_speed_mps, 0.0, 0.0, 0.0])
-        self._zero = np.zeros(6)
         self.outcome: tuple[str, str] | None = None
         self.interventions: list[Intervention] = []
         self._current: Intervention | None = None
@@ -215,7 +214,7 @@ class Supervisor:
         self._t_prev = 0.0
         self._retreated: Intervention | None = None  # the intervention of last cycle's retreat
         self.peaks = _Peaks()
-        self.last_command = self._zero
+        self.last_command = np.zeros(6)
         publish(False, "")
 
     @property
@@ -252,11 +251,11 @@ class Supervisor:
             self._retreated = None
         self._t_prev = t
         if self.outcome is not None:
-            return self._send(self._zero)
+            return self._send(np.zeros(6))
         fault = self._hardware_fault(pose, t, frame_time, pose_time)
         if fault:
             self._end(fault)
-            return self._send(self._zero)
+            return self._send(np.zeros(6))
         pressure, force = features.pressure, features.force
         peaks = self.peaks
         if pressure > peaks.pressure_pa:
@@ -275,7 +274,7 @@ class Supervisor:
 
     def stop(self) -> np.ndarray:
         """The last command of a mission, on every way out: a zero twist."""
-        return self._send(self._zero)
+        return self._send(np.zeros(6))
 
     def summary(self) -> dict:
         """What report.json shows under ``supervisor``: the limits, how often and how long the
@@ -324,9 +323,9 @@ class Supervisor:
         if t - run.start_s >= self.limits.grace_s:
             self._end(f"{limit} limit: {value:.4g} {unit} above {bound:.4g} {unit} at {t:.2f} s, still after "
                       f"{t - run.start_s:.2f} s of retreat (since {run.start_s:.2f} s)")
-            return self._zero
+            return np.zeros(6)
         self._retreated = run
-        return self._retreat
+        return self._retreat.copy()
 
     def _end(self, why: str) -> None:
         self.outcome = ("failure", f"supervisor: {why}")
