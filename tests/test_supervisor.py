@@ -11,6 +11,7 @@ from py_trees.common import Status
 from tactile_bt import defaults, load_tree, run_mission
 from tactile_bt.control.spatial import body_to_spatial, make_pose
 from tactile_bt.errors import SceneError
+from tactile_bt.mission.report import MissionReport
 from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
 from tactile_bt.sim.scene import load_scene
 from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
@@ -269,6 +270,9 @@ def test_a_tree_pressing_into_a_rigid_pen_is_pulled_back_and_the_mission_fails_n
     assert np.any(log["twist_s"][during, 2] < 0)
     assert np.max(_smoothed_pressure_after(result, 0.0)) < 1.15 * 4000.0
     assert not log["twist_s"][-1].any()  # the last command: zero
+    saved = MissionReport.load(tmp_path / "out")
+    assert saved.supervisor == sup
+    assert any(line.startswith("  supervisor       1 intervention, ") for line in saved.summary_lines())
 
 
 def test_a_tree_that_backs_off_on_the_supervisor_carries_on_within_the_limits(tmp_path):

@@ -170,7 +170,8 @@ class MissionReport:
                          f"coverage {rec['coverage']:.3f} of {rec['region']}")
         sup = self.supervisor
         if sup and sup.get("interventions"):
-            lines.append(f"  supervisor       {sup['interventions']} interventions, {sup['retreat_time_s']:.2f} s retreating "
-                         f"(longest {sup['longest_intervention_s']:.2f} s), peak {sup['peak_pressure_pa']:.0f} Pa, "
-                         f"{sup['peak_force_n']:.1f} N")
+            n = sup["interventions"]
+            lines.append(f"  supervisor       {n} intervention{'s' if n > 1 else ''}, "
+                         f"{sup['retreat_time_s']:.2f} s retreating (longest {sup['longest_intervention_s']:.2f} s), "
+                         f"peak {sup['peak_pressure_pa']:.0f} Pa, {sup['peak_force_n']:.1f} N")
         return lines
