@@ -82,3 +82,25 @@ METRIC_BANDS = {
 METRIC_DWELL_S: float = 0.5
 #: Length of the evaluation window after a controller starts (s): the paper's "until 20 s".
 METRIC_WINDOW_S: float = 20.0
+
+# --- Supervisor (between the controller and the mount; no tree switches it off) --------------
+#: Default pressure limit as a multiple of the highest pressure target of the tree's leaves.
+SUPERVISOR_PRESSURE_FACTOR: float = 2.0
+#: Highest pressure limit a scene or run may declare (Pa): 10x the paper's target.
+SUPERVISOR_PRESSURE_CAP_PA: float = 10.0 * TARGET_PRESSURE_PA
+#: Absolute cap on the contact force (N): the default force limit, and the highest one allowed.
+SUPERVISOR_FORCE_CAP_N: float = 20.0
+#: Time a limit may stay exceeded, the supervisor retreating, before the mission fails (s).
+SUPERVISOR_GRACE_S: float = 0.5
+#: Time within every limit after which an intervention counts as over (s).
+SUPERVISOR_CLEAR_S: float = 0.2
+#: Longest grace and clear time a scene or run may declare (s).
+SUPERVISOR_MAX_WAIT_S: float = 2.0
+#: Speed of the retreat along the pad normal, away from the object (m/s).
+SUPERVISOR_RETREAT_SPEED_MPS: float = 0.02
+#: Live missions: the longest gap between sensor frames (s; 10 frames at 250 Hz) ...
+SUPERVISOR_SENSOR_SILENCE_S: float = 0.04
+#: ... and the oldest robot pose (s) the supervisor accepts before it stops the mission.
+SUPERVISOR_POSE_STALE_S: float = 0.04
+#: Longest silence and pose age a scene or run may declare (s).
+SUPERVISOR_MAX_STALE_S: float = 1.0

@@ -82,6 +82,10 @@ class MissionReport:
         true centreline (m): ``mean``, ``max``, ...
     reconstruction : dict, optional
         Reconstruction and accuracy figures of a scan (:mod:`tactile_bt.mission.accuracy`).
+    supervisor : dict, optional
+        The supervisor's limits, how often and how long it intervened, the peak pressure and
+        force it saw and why it ended the mission, if it did
+        (:meth:`tactile_bt.mission.supervisor.Supervisor.summary`).
     """
 
     tree: str
@@ -101,11 +105,12 @@ class MissionReport:
     path_error_m: dict | None = None
     path_error_cop_m: dict | None = None
     reconstruction: dict | None = None
+    supervisor: dict | None = None
 
     #: Key order of report.json.
     ORDER = ("tree", "recording", "scene", "seed", "status", "reason", "warnings", "rate_hz", "sim_time_s",
              "wall_time_s", "real_time_factor", "ticks", "metrics", "contacts", "path_error_m",
-             "path_error_cop_m", "reconstruction")
+             "path_error_cop_m", "reconstruction", "supervisor")
 
     @property
     def ok(self) -> bool:
@@ -118,7 +123,7 @@ class MissionReport:
         for name in self.ORDER:
             value = getattr(self, name)
             if value is None and name in ("rate_hz", "recording", "path_error_m", "path_error_cop_m",
-                                          "reconstruction"):
+                                          "reconstruction", "supervisor"):
                 continue
             if name == "metrics":
                 value = {k: m.to_dict() for k, m in value.items()}
@@ -163,4 +168,10 @@ class MissionReport:
             lines.append(f"  reconstruction   {rec['method']}, {rec['points']} contacts: chamfer "
                          f"{rec['chamfer_m'] * 1e3:.2f} mm, Hausdorff {rec['hausdorff_m'] * 1e3:.2f} mm, "
                          f"coverage {rec['coverage']:.3f} of {rec['region']}")
+        sup = self.supervisor
+        if sup and sup.get("interventions"):
+            n = sup["interventions"]
+            lines.append(f"  supervisor       {n} intervention{'s' if n > 1 else ''}, "
+                         f"{sup['retreat_time_s']:.2f} s retreating (longest {sup['longest_intervention_s']:.2f} s), "
+                         f"peak {sup['peak_pressure_pa']:.0f} Pa, {sup['peak_force_n']:.1f} N")
         return lines

@@ -73,7 +73,8 @@ class MissionResult:
 
 def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: float, sim_time_s: float, *,
                    scene=None, seed: int | None = None, recording: str | None = None,
-                   warnings: list[str] | tuple = (), scan: dict | None = None, pad=None) -> MissionResult:
+                   warnings: list[str] | tuple = (), scan: dict | None = None, pad=None,
+                   supervision: dict | None = None) -> MissionResult:
     """Wrap up a run: metrics, report, path error and scan accuracy.
 
     Parameters
@@ -102,6 +103,9 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     pad : PadGeometry, optional
         The pad whose centre-of-pressure log is carried to the world for ``path_error_cop_m``
         (default: the scene's).
+    supervision : dict, optional
+        What the supervisor did (:meth:`~tactile_bt.mission.supervisor.Supervisor.summary`),
+        the report's ``supervisor`` entry.
     """
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
@@ -125,6 +129,7 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         warnings=list(warnings),
         rate_hz=getattr(scene, "rate_hz", None),
         recording=None if recording is None else str(recording),
+        supervisor=supervision,
     )
     cable = getattr(scene, "cable", None)
     if cable is not None:

@@ -1,9 +1,10 @@
 """A mission: a tree run against a simulated scene, one control cycle per tick.
 
 scene events → sense → (serial link) → :class:`~tactile_bt.mission.loop.ControlLoop`
-(calibrate → extract → smooth → blackboard → tree tick → twist) → ``Ad(T_gs)`` → mount → log,
-then :func:`~tactile_bt.mission.result.finish_mission`. Nothing else reaches across: the tree
-never talks to the robot.
+(calibrate → extract → smooth → blackboard → tree tick → twist) →
+:class:`~tactile_bt.mission.supervisor.Supervisor` → ``Ad(T_gs)`` → mount → log, then
+:func:`~tactile_bt.mission.result.finish_mission`. Nothing else reaches across: the tree never
+talks to the robot.
 
 Layer: mission.
 """
@@ -25,6 +26,7 @@ from tactile_bt.errors import MissionLengthError
 from tactile_bt.mission.log import MissionLog
 from tactile_bt.mission.loop import ControlLoop, root_outcome
 from tactile_bt.mission.result import MissionResult, finish_mission
+from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
 from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
@@ -140,6 +142,7 @@ def run_mission(
     table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
     contacts = loop.contacts
+    supervisor = Supervisor(SupervisorLimits.for_tree(tree, scene.supervisor))
 
     log = MissionLog(n_cycles)
     joints = getattr(world.mount, "joint_angles", None)
@@ -167,7 +170,7 @@ def run_mission(
     try:
         for k in range(n_cycles):
             t = k * dt
-            # scene events → sense → perceive → tick → controller → Ad(T_gs) → robot
+            # scene events → sense → perceive → tick → controller → supervisor → Ad(T_gs) → robot
             world.update(t)
             pose = world.pose
             raw = world.sense()
@@ -176,13 +179,14 @@ def run_mission(
             if recorder is not None:
                 recorder.write(raw, pose, timestamp=t)
             twist_s = loop.cycle(raw, pose, t)
+            twist_s = supervisor.check(loop.features, pose, twist_s, t)
             world.move(body_to_spatial(pose, twist_s), dt)
             log.write(k, t, loop, twist_s, pose, world.last_penetration)
             if joints is not None:
                 log.write_joints(k, joints(), *(arm_state() if arm_state is not None else ()))
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
-            outcome = root_outcome(tree.root)
+            outcome = supervisor.outcome or root_outcome(tree.root)
             if outcome is not None:
                 status, reason = outcome
                 break
@@ -192,15 +196,16 @@ def run_mission(
         else:
             status, reason = "error", f"{type(exc).__name__}: {exc}"
         result = finish_mission(tree, log, contacts, status, reason, wall_start, log.n * dt, scene=scene,
-                                seed=seed, scan=scan)
+                                seed=seed, scan=scan, supervision=supervisor.summary())
         if out is not None:
             result.save(out)
         raise
     finally:
+        supervisor.stop()  # the mount's last command is a zero twist, however the mission ends
         tree.interrupt()
         stack.close()
     result = finish_mission(tree, log, contacts, status, reason, wall_start, log.n * dt, scene=scene, seed=seed,
-                            scan=scan)
+                            scan=scan, supervision=supervisor.summary())
     if out is not None:
         result.save(out)
     return result

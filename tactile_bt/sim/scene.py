@@ -79,6 +79,7 @@ TOP_LEVEL = {
     "objects": LIST,
     "events": LIST,
     "scan_region": MAPPING,
+    "supervisor": MAPPING,
 }
 #: The ``sensor:`` section (one entry per :class:`SensorParams` field). Zero turns the spread
 #: and noise terms off; the upper bounds keep the pad model's arrays and noise meaningful.
@@ -104,6 +105,20 @@ MOUNT = {
     "base": ListOf(3, COORD),
     "stiffness": Range(0.0, 1e8, lo_open=True, unit="N m/rad"),
     "damping": Range(0.0, 1e6, unit="N m s/rad"),
+}
+#: The ``supervisor:`` section: limits of the supervisor between the controller and the mount
+#: (:mod:`tactile_bt.mission.supervisor`), which a scene or a run (``--set supervisor.KEY=...``)
+#: may set within these bounds; no tree can.
+SUPERVISOR = {
+    "pressure_limit_pa": Range(0.0, defaults.SUPERVISOR_PRESSURE_CAP_PA, lo_open=True, unit="Pa"),
+    "force_limit_n": Range(0.0, defaults.SUPERVISOR_FORCE_CAP_N, lo_open=True, unit="N"),
+    "grace_s": Range(0.0, defaults.SUPERVISOR_MAX_WAIT_S, lo_open=True, unit="s"),
+    "clear_s": Range(0.0, defaults.SUPERVISOR_MAX_WAIT_S, lo_open=True, unit="s"),
+    "retreat_speed_mps": Range(0.0, defaults.TWIST_LINEAR_LIMIT_MPS, lo_open=True, unit="m/s"),
+    "sensor_silence_s": Range(0.0, defaults.SUPERVISOR_MAX_STALE_S, lo_open=True, unit="s"),
+    "pose_stale_s": Range(0.0, defaults.SUPERVISOR_MAX_STALE_S, lo_open=True, unit="s"),
+    "workspace_min_m": ListOf(3, COORD),
+    "workspace_max_m": ListOf(3, COORD),
 }
 #: Fields every object has: its type, pose in the world and contact properties.
 _COMMON = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, NUMBER),
@@ -190,6 +205,8 @@ class Scene:
     objects: list = field(default_factory=list)
     events: list = field(default_factory=list)
     data: dict = field(default_factory=dict)
+    #: The validated ``supervisor:`` section (field → value), empty when the scene has none.
+    supervisor: dict = field(default_factory=dict)
 
     def build_world(self, rng: np.random.Generator) -> World:
         """A fresh world (sensor characteristics drawn from ``rng``) with its own event schedule
@@ -353,8 +370,24 @@ def build_scene(root: Located) -> Scene:
         except ValueError as exc:
             raise root.value["scan_region"].error(str(exc)) from None
     scene.events = [_build_event(item, i, len(scene.objects)) for i, item in enumerate(top.get("events", []))]
+    if "supervisor" in top:
+        scene.supervisor = _supervisor_limits(root.value["supervisor"])
     _check_start(root, scene)
     return scene
+
+
+def _supervisor_limits(section: Located) -> dict:
+    """The ``supervisor:`` section's fields; a workspace box needs both corners, min below max."""
+    fields = _fields(section, SUPERVISOR, "supervisor.")
+    corners = [k for k in ("workspace_min_m", "workspace_max_m") if k in fields]
+    if len(corners) == 1:
+        other = ({"workspace_min_m", "workspace_max_m"} - set(corners)).pop()
+        raise section.keys[corners[0]].error(f"supervisor.{corners[0]}: a workspace box needs supervisor.{other} too")
+    if corners and not all(lo < hi for lo, hi in zip(fields["workspace_min_m"], fields["workspace_max_m"])):
+        raise section.keys["workspace_max_m"].error(
+            f"supervisor.workspace_max_m: expected every coordinate above workspace_min_m "
+            f"{fields['workspace_min_m']}, got {fields['workspace_max_m']}")
+    return fields
 
 
 def _check_start(root: Located, scene: Scene) -> None:

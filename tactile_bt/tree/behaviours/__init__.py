@@ -20,6 +20,7 @@ from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
+from tactile_bt.tree.behaviours.supervision import SupervisorRetreat
 
 #: YAML node type → leaf class.
 LEAVES = {
@@ -43,6 +44,7 @@ LEAVES = {
     "square_to_slope": SquareToSlope,
     "contact_lost": ContactLost,
     "force_limit": ForceLimit,
+    "supervisor_retreat": SupervisorRetreat,
 }
 #: YAML node type → decorator class (first argument: the child).
 DECORATORS = {
@@ -78,6 +80,7 @@ __all__ = [
     "RollTo",
     "SquareToSlope",
     "ContactLost",
+    "SupervisorRetreat",
     "ForceLimit",
     "MissionTimeout",
     "Retry",
