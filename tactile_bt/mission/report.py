@@ -86,6 +86,10 @@ class MissionReport:
         The supervisor's limits, how often and how long it intervened, the peak pressure and
         force it saw and why it ended the mission, if it did
         (:meth:`tactile_bt.mission.supervisor.Supervisor.summary`).
+    realtime : dict, optional
+        A live mission's real-time figures: latency (frame arrival to twist sent), cycle period,
+        jitter and work per cycle as percentiles in ms, cycles over budget
+        (:func:`tactile_bt.mission.live.realtime_summary`).
     """
 
     tree: str
@@ -106,11 +110,12 @@ class MissionReport:
     path_error_cop_m: dict | None = None
     reconstruction: dict | None = None
     supervisor: dict | None = None
+    realtime: dict | None = None
 
     #: Key order of report.json.
     ORDER = ("tree", "recording", "scene", "seed", "status", "reason", "warnings", "rate_hz", "sim_time_s",
              "wall_time_s", "real_time_factor", "ticks", "metrics", "contacts", "path_error_m",
-             "path_error_cop_m", "reconstruction", "supervisor")
+             "path_error_cop_m", "reconstruction", "supervisor", "realtime")
 
     @property
     def ok(self) -> bool:
@@ -123,7 +128,7 @@ class MissionReport:
         for name in self.ORDER:
             value = getattr(self, name)
             if value is None and name in ("rate_hz", "recording", "path_error_m", "path_error_cop_m",
-                                          "reconstruction", "supervisor"):
+                                          "reconstruction", "supervisor", "realtime"):
                 continue
             if name == "metrics":
                 value = {k: m.to_dict() for k, m in value.items()}
@@ -174,4 +179,9 @@ class MissionReport:
             lines.append(f"  supervisor       {n} intervention{'s' if n > 1 else ''}, "
                          f"{sup['retreat_time_s']:.2f} s retreating (longest {sup['longest_intervention_s']:.2f} s), "
                          f"peak {sup['peak_pressure_pa']:.0f} Pa, {sup['peak_force_n']:.1f} N")
+        rt = self.realtime
+        if rt:
+            lines.append(f"  real time        latency p50 {rt['latency_ms']['p50']:.2f} ms, p99 {rt['latency_ms']['p99']:.2f} ms; "
+                         f"period jitter p99 {rt['jitter_ms']['p99']:.2f} ms; {rt['over_budget']} of {rt['cycles']} "
+                         "cycles over budget")
         return lines
