@@ -14,7 +14,7 @@ import contextlib
 import math
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import py_trees
@@ -25,6 +25,7 @@ from tactile_bt.errors import MissionLengthError
 from tactile_bt.mission.log import MissionLog
 from tactile_bt.mission.loop import ControlLoop, root_outcome
 from tactile_bt.mission.result import MissionResult, finish_mission
+from tactile_bt.mission.watch import MissionWatcher, finish_watchers, start_watchers
 from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
@@ -71,6 +72,8 @@ def run_mission(
     scan_region: dict | None = None,
     params: list[str] | None = None,
     blackboard: list[str] | None = None,
+    node_status: bool = True,
+    watchers: Sequence[MissionWatcher] = (),
 ) -> MissionResult:
     """Run a tree against a simulated scene.
 
@@ -117,6 +120,12 @@ def run_mission(
     blackboard : list of ``KEY=VALUE``, optional
         Blackboard keys the tree reads, written before it starts, as ``--blackboard``; only with a
         tree file.
+    node_status : bool
+        Log every node's status per tick (``node_names``, ``node_status`` in the log, and
+        ``tree.png``); False only to measure what that costs.
+    watchers : sequence of MissionWatcher
+        Shown every cycle (:mod:`tactile_bt.mission.watch`), e.g. the rerun recording
+        (:class:`~tactile_bt.mission.recording_rerun.RerunRecorder`).
     """
     kernel_build.start()  # on a cold kernel cache: a second process starts compiling kernels
     tree, scene = _resolve(tree, scene, overrides, params, blackboard)
@@ -146,6 +155,8 @@ def run_mission(
     arm_state = getattr(world.mount, "saturation", None)  # the arm: saturated joints, unrealised twist
     if joints is not None:
         log.track_joints(len(joints()), getattr(world.mount, "limits", None))
+    if node_status:
+        log.track_nodes(tree.root)
     status = "completed"
     reason = ""
     progress_every = max(1, int(scene.rate_hz / 20))
@@ -163,6 +174,7 @@ def run_mission(
                                                 metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
                                                           "pitch_m": pad.pitch,
                                                           "table_z_m": None if math.isnan(table_z_m) else table_z_m}))
+    watchers = start_watchers(watchers, loop, log, scene)
     wall_start = time.perf_counter()
     try:
         for k in range(n_cycles):
@@ -180,6 +192,8 @@ def run_mission(
             log.write(k, t, loop, twist_s, pose, world.last_penetration)
             if joints is not None:
                 log.write_joints(k, joints(), *(arm_state() if arm_state is not None else ()))
+            for watcher in watchers:
+                watcher.cycle(k, t, loop, log)
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
             outcome = root_outcome(tree.root)
@@ -195,6 +209,7 @@ def run_mission(
                                 seed=seed, scan=scan)
         if out is not None:
             result.save(out)
+        finish_watchers(watchers, result)
         raise
     finally:
         tree.interrupt()
@@ -203,6 +218,7 @@ def run_mission(
                             scan=scan)
     if out is not None:
         result.save(out)
+    finish_watchers(watchers, result)
     return result
 
 
