@@ -30,13 +30,14 @@ def _cmd_run(args) -> int:
         check_output(calibration_path(args.record), args.force)
     from tactile_bt.progress import Progress
 
+    watchers = _watchers(args)
     progress = Progress(args.duration or 0.0, unit="s", label="mission time")
     try:
         result = run_mission(args.tree, args.scene, duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
                              orientation_method=args.orientation, via_emulator=args.via_emulator,
                              recording=args.record, reconstruct=args.reconstruct,
-                             params=args.param, blackboard=args.blackboard)
+                             params=args.param, blackboard=args.blackboard, watchers=watchers)
     finally:
         progress.close()
     r = result.summary
@@ -46,16 +47,18 @@ def _cmd_run(args) -> int:
     for warning in r.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     print(f"  outputs in {args.out}")
+    _watched(args)
     return 0 if r.ok else 1
 
 
 def _cmd_replay(args) -> int:
     from tactile_bt.mission.replay import replay_mission
 
+    watchers = _watchers(args)
     try:
         with one_line_warnings():
             result = replay_mission(args.tree, args.recording, calibration=args.calibration, speed=args.speed,
-                                    orientation_method=args.orientation, out=args.out)
+                                    orientation_method=args.orientation, out=args.out, watchers=watchers)
     except OSError as exc:  # an unreadable recording or calibration file
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -65,7 +68,39 @@ def _cmd_replay(args) -> int:
     print("\n".join(r.summary_lines()))
     if args.out:
         print(f"  outputs in {args.out}")
+    _watched(args)
     return 0 if r.ok else 1
+
+
+def _watch_options(parser: argparse.ArgumentParser) -> None:
+    """``--rerun FILE.rrd``, ``--rerun-spawn``, ``--rerun-rate HZ``: the options of every command
+    that runs a mission (``run``, ``replay``; ``live`` takes the same)."""
+    parser.add_argument("--rerun", default=None, metavar="FILE.rrd",
+                        help="log the force image, features, pad, contacts and node status to a rerun recording "
+                             "(needs the [viewer] extra; see docs/watching.md)")
+    parser.add_argument("--rerun-spawn", action="store_true",
+                        help="also open the rerun viewer and stream to it (run 'rerun analytics disable' once first)")
+    parser.add_argument("--rerun-rate", type=positive_float, default=None, metavar="HZ",
+                        help="rate of the logged images, features and pad pose in Hz of mission time (default: 50)")
+
+
+def _watchers(args) -> list:
+    """The watchers the ``--rerun`` options ask for, made before the mission (a missing rerun-sdk
+    or an unwritable file is an error before any work)."""
+    if args.rerun is None and not args.rerun_spawn:
+        return []
+    from tactile_bt import defaults
+    from tactile_bt.mission.recording_rerun import RerunRecorder
+
+    if args.rerun is not None:
+        check_output(args.rerun, force=True, option="--rerun", create_parent=True)
+    rate = args.rerun_rate if args.rerun_rate is not None else defaults.RERUN_RATE_HZ
+    return [RerunRecorder(args.rerun, spawn=args.rerun_spawn, rate_hz=rate)]
+
+
+def _watched(args) -> None:
+    if args.rerun is not None:
+        print(f"  rerun recording in {args.rerun}")
 
 
 def _cmd_tree(args) -> int:
@@ -315,6 +350,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="set a blackboard key the tree reads before it starts, e.g. /goal/pressure=1800 (repeatable)")
     run.add_argument("--out", required=True,
                      help="output directory; the outputs of an earlier run there are replaced")
+    _watch_options(run)
     run.set_defaults(func=_cmd_run)
 
     replay = sub.add_parser("replay", help="run a tree on a recording's frames and poses "
@@ -328,6 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--orientation", choices=("moments", "hough"), default="moments",
                         help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
+    _watch_options(replay)
     replay.set_defaults(func=_cmd_replay)
 
     tree = sub.add_parser("tree", help="validate and print a YAML tree")

@@ -82,3 +82,8 @@ METRIC_BANDS = {
 METRIC_DWELL_S: float = 0.5
 #: Length of the evaluation window after a controller starts (s): the paper's "until 20 s".
 METRIC_WINDOW_S: float = 20.0
+
+# --- Watching a mission ------------------------------------------------------------------------
+#: Rate (Hz of mission time) at which ``--rerun`` logs the force image, the features and the
+#: pad's pose; node status changes are logged at every tick.
+RERUN_RATE_HZ: float = 50.0
