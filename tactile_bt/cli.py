@@ -145,6 +145,15 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_compare(args) -> int:
+    from tactile_bt.experiments.compare import write_compare
+
+    md, png = write_compare(args.dirs, args.out)
+    print(md.read_text().split("\n## ")[0].rstrip())
+    print(f"written: {md}, {png}")
+    return 0
+
+
 def _note(message: str) -> None:
     print(f"note: {message}", file=sys.stderr)
 
@@ -414,6 +423,13 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--retry-errors", action="store_true",
                        help="run the runs whose row in DIR/results.csv is an error again")
     sweep.set_defaults(func=_cmd_sweep)
+
+    compare = sub.add_parser("compare", help="runs side by side: their reports (compare.md) and errors (compare.png)")
+    compare.add_argument("dirs", nargs="+", metavar="DIR",
+                         help="output directories of 'run' or 'replay'; a sweep's (with --keep-runs) counts as all "
+                              "its runs")
+    compare.add_argument("--out", required=True, metavar="DIR", help="where compare.md and compare.png go")
+    compare.set_defaults(func=_cmd_compare)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
     acc.add_argument("--trials", type=positive_int, default=20, help="synthetic contacts per angle (default: 20)")
