@@ -198,13 +198,11 @@ def _outline(pad) -> np.ndarray:
 
 
 def _object_mesh(obj) -> tuple[np.ndarray, np.ndarray] | None:
-    """Vertices (world, m) and triangles of an object's surface, from the 3-D view's shapes."""
-    import pyvista as pv
+    """Vertices (world, m) and triangles of an object's surface, as the scan's accuracy sees it
+    (:func:`tactile_bt.mission.accuracy.true_surface`); None for objects without one."""
+    from tactile_bt.mission.accuracy import true_surface
 
-    from tactile_bt.mission.view import _primitive
-
-    mesh = _primitive(obj, pv)
+    mesh = true_surface(obj)
     if mesh is None:
         return None
-    mesh = mesh.transform(obj.pose, inplace=False).triangulate()
-    return np.asarray(mesh.points, np.float32), mesh.faces.reshape(-1, 4)[:, 1:].astype(np.uint32)
+    return np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32)

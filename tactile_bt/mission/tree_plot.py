@@ -98,8 +98,7 @@ def plot_tree_status(log: dict, status: str = "", reason: str = "", title: str =
         ax.text(end, -0.5, " " + "\n ".join(textwrap.wrap(ending, 60)), ha="right", va="bottom", fontsize=8,
                 clip_on=False)
     handles = [Patch(color=c, label=n) for n, c in zip(STATUS_NAMES, STATUS_COLOURS)]
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.02 - 0.5 / height), ncol=4,
-              fontsize=8, frameon=False)
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     if title:
         fig.suptitle(title, fontsize=10)
     if path is not None:
