@@ -16,7 +16,10 @@ Entities (world frame z up, metres; the pad's frame is O_s of DESIGN.md):
 * ``tree/status`` — every change of a node's status, a text log (at the tick it happened).
 
 Images, features and the pad are logged at ``rate_hz`` (default
-:data:`tactile_bt.defaults.RERUN_RATE_HZ`), status changes at every tick. rerun-sdk (the
+:data:`tactile_bt.defaults.RERUN_RATE_HZ`), status changes at every tick. The features and the
+pad's pose are read from the mission's log, the images and overlays kept in small buffers, and
+all of them sent as columns every :data:`SEND_EVERY` logged frames and at the end (a tenth of
+the cost of one call per entity and frame); contacts and status changes are sent as they come. rerun-sdk (the
 ``[viewer]`` extra) is imported by this module only, when a recorder is made.
 
 Layer: mission.
@@ -38,6 +41,8 @@ __all__ = ["RerunRecorder", "FEATURES", "import_rerun"]
 #: The features logged under ``features/``: the logged errors of :data:`defaults.METRIC_BANDS`.
 FEATURES = tuple(defaults.METRIC_BANDS)
 _SERIES = ("value", "target", "error")
+#: Logged frames whose features and pad poses are sent together (0.5 s of mission time at 50 Hz).
+SEND_EVERY = 25
 
 
 def import_rerun():
@@ -101,7 +106,22 @@ class RerunRecorder:
         self._every = max(1, int(round(1.0 / (loop.dt * self.rate_hz))))
         self._contacts_logged = 0
         self._last_codes = None
+        self._log = log
+        self._pending: list[int] = []
+        shape = loop.pad.shape
+        self._images = np.zeros((SEND_EVERY, *shape), np.float32)
+        self._masks = np.zeros((SEND_EVERY, *shape), np.uint8)
+        self._cop = np.full((SEND_EVERY, 2), np.nan)
+        self._angle = np.full(SEND_EVERY, np.nan)
         stream.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        rows, cols = shape
+        image = "tactile/force_image"
+        stream.log(image, rr.Image.from_fields(format=rr.components.ImageFormat(
+            width=cols, height=rows, color_model="L", channel_datatype="F32")), static=True)
+        stream.log(f"{image}/region", rr.SegmentationImage.from_fields(format=rr.components.ImageFormat(
+            width=cols, height=rows, channel_datatype="U8"), opacity=0.35), static=True)
+        stream.log(f"{image}/cop", rr.Points2D.from_fields(radii=0.35, colors=[(255, 40, 40)]), static=True)
+        stream.log(f"{image}/orientation", rr.LineStrips2D.from_fields(colors=[(255, 40, 40)]), static=True)
         for name in FEATURES:
             stream.log(f"features/{name}", rr.SeriesLines(names=list(_SERIES), colors=[(40, 110, 200), (120, 120, 120),
                                                                                       (220, 80, 60)]), static=True)
@@ -111,24 +131,21 @@ class RerunRecorder:
 
     def cycle(self, k: int, t: float, loop, log) -> None:
         nodes = log.nodes
-        stream = self.stream
         if nodes is not None and nodes.changed:
-            stream.set_time("mission_time", duration=t)
+            self.stream.set_time("mission_time", duration=t)
             codes = nodes.current
             lines = status_changes(self._last_codes, codes, nodes.names)
             self._last_codes = codes.copy()
-            stream.log("tree/status", self.rr.TextLog("\n".join(lines), level="INFO"))
-        if k % self._every:
-            return
-        if not (nodes is not None and nodes.changed):
-            stream.set_time("mission_time", duration=t)
-        self._log_cycle(k, loop, log)
+            self.stream.log("tree/status", self.rr.TextLog("\n".join(lines), level="INFO"))
+        if k % self._every == 0:
+            self._keep(k, t, loop)
 
     def finish(self, result) -> None:
         stream = self.stream
         if stream is None:
             return
         try:
+            self._send()
             surface = getattr(result, "surface", None)
             if surface is not None and len(surface.faces):
                 stream.set_time("mission_time", duration=float(result.summary.sim_time_s))
@@ -143,34 +160,58 @@ class RerunRecorder:
 
     # --- what one logged cycle holds ---------------------------------------------------------
 
-    def _log_cycle(self, k: int, loop, log) -> None:
-        rr, stream = self.rr, self.stream
+    def _keep(self, k: int, t: float, loop) -> None:
+        """Keep cycle ``k``'s image and overlays for the next send; send the contacts recorded
+        since the last logged cycle."""
+        i = len(self._pending)
         f = loop.features_raw
-        stream.log("tactile/force_image", rr.Image(np.asarray(loop.image, np.float32)))
-        stream.log("tactile/force_image/region", rr.SegmentationImage(f.mask.view(np.uint8), opacity=0.35))
+        self._images[i] = loop.image
+        self._masks[i] = f.mask
+        # tactel centres at index + 0.5 in rerun's image coordinates
+        self._cop[i] = f.cop_px + 0.5 if f.in_contact else np.nan
+        self._angle[i] = loop.features.orientation if f.in_contact else np.nan
+        self._pending.append(k)
         self.frames += 1
-        if f.in_contact:
-            cop = f.cop_px + 0.5  # tactel centres at index + 0.5 in rerun's image coordinates
-            stream.log("tactile/force_image/cop", rr.Points2D([cop], radii=0.35, colors=[(255, 40, 40)]))
-            if math.isfinite(loop.features.orientation):
-                a = loop.features.orientation
-                d = 3.0 * np.array([math.cos(a), math.sin(a)])
-                stream.log("tactile/force_image/orientation", rr.LineStrips2D([[cop - d, cop + d]],
-                                                                              colors=[(255, 40, 40)]))
-        else:
-            stream.log("tactile/force_image/cop", rr.Clear(recursive=False))
-            stream.log("tactile/force_image/orientation", rr.Clear(recursive=False))
-        scalars = log.scalars
-        for name in FEATURES:
-            value = scalars[name][k]
-            error = scalars["error_" + name][k]
-            stream.log(f"features/{name}", rr.Scalars([value, value + error, error]))
-        stream.log("pad", rr.Transform3D(translation=log.position[k], mat3x3=log.rotation[k]))
+        if len(self._pending) == SEND_EVERY:
+            self._send()
         n = len(loop.contacts)
         if n > self._contacts_logged:
+            self.stream.set_time("mission_time", duration=t)
             points = loop.contacts.points[self._contacts_logged:n]
-            stream.log("contacts", rr.Points3D(points, radii=0.0008, colors=[(30, 30, 30)]))
+            self.stream.log("contacts", self.rr.Points3D(points, radii=0.0008, colors=[(30, 30, 30)]))
             self._contacts_logged = n
+
+    def _send(self) -> None:
+        """Send the pending logged cycles as columns: image, region, COP and axis from the
+        buffers, features and pad poses from the mission's log."""
+        n = len(self._pending)
+        if n == 0:
+            return
+        rr, stream, log = self.rr, self.stream, self._log
+        k = np.array(self._pending)
+        self._pending.clear()
+        time = [rr.TimeColumn("mission_time", duration=log.scalars["t"][k])]
+        image = "tactile/force_image"
+        stream.send_columns(image, indexes=time,
+                            columns=rr.Image.columns(buffer=self._images[:n].reshape(n, -1).view(np.uint8)))
+        stream.send_columns(f"{image}/region", indexes=time,
+                            columns=rr.SegmentationImage.columns(buffer=self._masks[:n].reshape(n, -1)))
+        cop, angle = self._cop[:n], self._angle[:n]
+        touching = np.isfinite(cop[:, 0])  # an empty row: nothing drawn at that time
+        stream.send_columns(f"{image}/cop", indexes=time,
+                            columns=rr.Points2D.columns(positions=cop[touching]).partition(touching.astype(int)))
+        axis = np.isfinite(angle)
+        d = 3.0 * np.column_stack((np.cos(angle[axis]), np.sin(angle[axis])))
+        strips = np.stack((cop[axis] - d, cop[axis] + d), axis=1)
+        stream.send_columns(f"{image}/orientation", indexes=time,
+                            columns=rr.LineStrips2D.columns(strips=list(strips)).partition(axis.astype(int)))
+        for name in FEATURES:
+            value, error = log.scalars[name][k], log.scalars["error_" + name][k]
+            rows = np.column_stack((value, value + error, error))
+            stream.send_columns(f"features/{name}", indexes=time,
+                                columns=rr.Scalars.columns(scalars=rows.ravel()).partition([3] * n))
+        stream.send_columns("pad", indexes=time,
+                            columns=rr.Transform3D.columns(translation=log.position[k], mat3x3=log.rotation[k]))
 
     def _log_scene(self, scene) -> None:
         """The scene's objects (simulated truth), static: the cable as its centreline, other
