@@ -92,17 +92,7 @@ class RerunRecorder:
     # --- the watcher -------------------------------------------------------------------------
 
     def start(self, loop, log, scene=None) -> None:
-        rr = self.rr
-        stream = rr.RecordingStream(self.application_id)
-        if self.spawn:
-            stream.spawn(connect=self.path is None)
-            if self.path is not None:
-                stream.set_sinks(rr.FileSink(str(self.path)), rr.GrpcSink())
-        else:
-            stream.save(str(self.path))
-        stream.set_log_time_enabled(False)  # mission time only: the same mission, the same timeline
-        stream.set_log_tick_enabled(False)
-        self.stream = stream
+        self.stream = self._open()
         self._every = max(1, int(round(1.0 / (loop.dt * self.rate_hz))))
         self._contacts_logged = 0
         self._last_codes = None
@@ -113,19 +103,7 @@ class RerunRecorder:
         self._masks = np.zeros((SEND_EVERY, *shape), np.uint8)
         self._cop = np.full((SEND_EVERY, 2), np.nan)
         self._angle = np.full(SEND_EVERY, np.nan)
-        stream.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        rows, cols = shape
-        image = "tactile/force_image"
-        stream.log(image, rr.Image.from_fields(format=rr.components.ImageFormat(
-            width=cols, height=rows, color_model="L", channel_datatype="F32")), static=True)
-        stream.log(f"{image}/region", rr.SegmentationImage.from_fields(format=rr.components.ImageFormat(
-            width=cols, height=rows, channel_datatype="U8"), opacity=0.35), static=True)
-        stream.log(f"{image}/cop", rr.Points2D.from_fields(radii=0.35, colors=[(255, 40, 40)]), static=True)
-        stream.log(f"{image}/orientation", rr.LineStrips2D.from_fields(colors=[(255, 40, 40)]), static=True)
-        for name in FEATURES:
-            stream.log(f"features/{name}", rr.SeriesLines(names=list(_SERIES), colors=[(40, 110, 200), (120, 120, 120),
-                                                                                      (220, 80, 60)]), static=True)
-        stream.log("pad/outline", rr.LineStrips3D([_outline(loop.pad)], colors=[(230, 160, 30)]), static=True)
+        self._log_static(loop.pad)
         if scene is not None:
             self._log_scene(scene)
 
@@ -157,6 +135,39 @@ class RerunRecorder:
             if self.path is not None and not self.spawn:
                 stream.disconnect()  # closes the file
             self.stream = None
+
+    # --- the recording and what never changes ----------------------------------------------
+
+    def _open(self):
+        """A recording stream to the file, the viewer or both; mission time its only timeline."""
+        rr = self.rr
+        stream = rr.RecordingStream(self.application_id)
+        if self.spawn:
+            stream.spawn(connect=self.path is None)
+            if self.path is not None:
+                stream.set_sinks(rr.FileSink(str(self.path)), rr.GrpcSink())
+        else:
+            stream.save(str(self.path))
+        stream.set_log_time_enabled(False)  # mission time only: the same mission, the same timeline
+        stream.set_log_tick_enabled(False)
+        return stream
+
+    def _log_static(self, pad) -> None:
+        """World axes (z up), the image format and overlay styles, the feature series' names
+        and the pad's outline."""
+        rr, stream = self.rr, self.stream
+        stream.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        image = "tactile/force_image"
+        stream.log(image, rr.Image.from_fields(format=rr.components.ImageFormat(
+            width=pad.cols, height=pad.rows, color_model="L", channel_datatype="F32")), static=True)
+        stream.log(f"{image}/region", rr.SegmentationImage.from_fields(format=rr.components.ImageFormat(
+            width=pad.cols, height=pad.rows, channel_datatype="U8"), opacity=0.35), static=True)
+        stream.log(f"{image}/cop", rr.Points2D.from_fields(radii=0.35, colors=[(255, 40, 40)]), static=True)
+        stream.log(f"{image}/orientation", rr.LineStrips2D.from_fields(colors=[(255, 40, 40)]), static=True)
+        for name in FEATURES:
+            stream.log(f"features/{name}", rr.SeriesLines(names=list(_SERIES), colors=[(40, 110, 200), (120, 120, 120),
+                                                                                      (220, 80, 60)]), static=True)
+        stream.log("pad/outline", rr.LineStrips3D([_outline(pad)], colors=[(230, 160, 30)]), static=True)
 
     # --- what one logged cycle holds ---------------------------------------------------------
 
