@@ -105,17 +105,26 @@ def test_node_status_log_forward_fills_what_it_saw_every_tick():
 
 
 def test_replay_writes_tree_png_and_a_rerun_recording(tmp_path):
-    from tactile_bt.mission.recording_rerun import RerunRecorder
-    from tactile_bt.mission.replay import replay_mission
-
     run_mission(CABLE_TREE, CABLE_SCENE, duration=1.0, seed=0, recording=tmp_path / "r.tbr")
-    recorder = RerunRecorder(tmp_path / "replay.rrd", rate_hz=25.0)
-    result = replay_mission(CABLE_TREE, tmp_path / "r.tbr", out=tmp_path / "replay", watchers=[recorder])
+    rc = main(["replay", str(tmp_path / "r.tbr"), "--tree", str(CABLE_TREE), "--out", str(tmp_path / "replay"),
+               "--rerun", str(tmp_path / "replay.rrd"), "--rerun-rate", "25"])
+    assert rc == 0
     assert (tmp_path / "replay" / "tree.png").read_bytes()[:8] == PNG
-    assert result.log["node_status"].shape[0] == result.summary.ticks
+    with np.load(tmp_path / "replay" / "log.npz") as log:
+        assert log["node_status"].shape == (250, len(log["node_names"]))
     rows = rrd_rows(tmp_path / "replay.rrd")
-    assert rows["/tactile/force_image"] == recorder.frames == 25  # 1 s at 25 Hz
+    assert rows["/tactile/force_image"] == 25  # 1 s at 25 Hz
     assert "/tree/status" in rows
+
+
+def test_rerun_options_fail_before_the_mission_with_a_clear_message(tmp_path, capsys, monkeypatch):
+    run = ["run", str(CABLE_TREE), "--scene", str(CABLE_SCENE), "--duration", "0.2", "--out", str(tmp_path / "out")]
+    assert main([*run, "--rerun", str(tmp_path)]) == 2
+    assert f"--rerun {tmp_path} is a directory" in capsys.readouterr().err
+    monkeypatch.setitem(sys.modules, "rerun", None)  # as if rerun-sdk were not installed
+    assert main([*run, "--rerun", str(tmp_path / "a.rrd")]) == 2
+    assert "pip install 'tactile_bt[viewer]'" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
 
 
 def test_compare_puts_two_runs_side_by_side(watched, tmp_path):
