@@ -7,6 +7,7 @@ mkdir -p out docs/figures
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --out out/cable | tee out/cable.txt
 tactile-bt view out/cable --png docs/figures/cable_render.png
 cp out/cable/errors.png docs/figures/cable_errors.png
+cp out/cable/tree.png docs/figures/cable_tree.png
 python docs/cable_scenes.py | tee out/cable_scenes.txt
 python docs/cable_scenes.py --random 4 --seed 7 | tee out/cable_random.txt
 tactile-bt run trees/cable_follow.yaml --scene sim/cable.yaml --orientation hough --out out/cable_hough | tee out/cable_hough.txt

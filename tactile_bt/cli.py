@@ -57,13 +57,14 @@ def _cmd_run(args) -> int:
         check_output(calibration_path(args.record), args.force)
     from tactile_bt.progress import Progress
 
+    watchers = _watchers(args)
     progress = Progress(args.duration or 0.0, unit="s", label="mission time")
     try:
         result = run_mission(_shipped(args.tree), _shipped(args.scene), duration=args.duration, seed=args.seed,
                              overrides=args.set, out=args.out, progress=progress,
                              orientation_method=args.orientation, via_emulator=args.via_emulator,
                              recording=args.record, reconstruct=args.reconstruct,
-                             params=args.param, blackboard=args.blackboard)
+                             params=args.param, blackboard=args.blackboard, watchers=watchers)
     finally:
         progress.close()
     r = result.summary
@@ -73,6 +74,7 @@ def _cmd_run(args) -> int:
     for warning in r.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     print(f"  outputs in {args.out}")
+    _watched(args)
     return 0 if r.ok else 1
 
 
@@ -96,12 +98,14 @@ def _cmd_live(args) -> int:
 
         check_output(args.record, args.force)
         check_output(calibration_path(args.record), args.force)
+    watchers = _watchers(args)
     _terminate_as_interrupt()
     progress = Progress(args.duration or 0.0, unit="s", label="mission time")
     try:
         result = run_live(_shipped(args.tree), args.sensor, args.robot, duration=args.duration, out=args.out,
                           truth=_shipped(args.truth) if args.truth else None, record=args.record,
-                          module=args.module, orientation_method=args.orientation, progress=progress)
+                          module=args.module, orientation_method=args.orientation, progress=progress,
+                          watchers=watchers)
     finally:
         progress.close()
     r = result.summary
@@ -110,6 +114,7 @@ def _cmd_live(args) -> int:
     for warning in r.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     print(f"  outputs in {args.out}")
+    _watched(args)
     return 0 if r.ok else 1
 
 
@@ -134,10 +139,11 @@ def _cmd_replay(args) -> int:
     from tactile_bt.mission.replay import replay_mission
 
     _load_plugins(args)
+    watchers = _watchers(args)
     try:
         with one_line_warnings():
             result = replay_mission(_shipped(args.tree), args.recording, calibration=args.calibration, speed=args.speed,
-                                    orientation_method=args.orientation, out=args.out)
+                                    orientation_method=args.orientation, out=args.out, watchers=watchers)
     except OSError as exc:  # an unreadable recording or calibration file
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -147,7 +153,39 @@ def _cmd_replay(args) -> int:
     print("\n".join(r.summary_lines()))
     if args.out:
         print(f"  outputs in {args.out}")
+    _watched(args)
     return 0 if r.ok else 1
+
+
+def _watch_options(parser: argparse.ArgumentParser) -> None:
+    """``--rerun FILE.rrd``, ``--rerun-spawn``, ``--rerun-rate HZ``: the options of every command
+    that runs a mission (``run``, ``replay``; ``live`` takes the same)."""
+    parser.add_argument("--rerun", default=None, metavar="FILE.rrd",
+                        help="log the force image, features, pad, contacts and node status to a rerun recording "
+                             "(needs the [viewer] extra; see docs/watching.md)")
+    parser.add_argument("--rerun-spawn", action="store_true",
+                        help="also open the rerun viewer and stream to it (run 'rerun analytics disable' once first)")
+    parser.add_argument("--rerun-rate", type=positive_float, default=None, metavar="HZ",
+                        help="rate of the logged images, features and pad pose in Hz of mission time (default: 50)")
+
+
+def _watchers(args) -> list:
+    """The watchers the ``--rerun`` options ask for, made before the mission (a missing rerun-sdk
+    or an unwritable file is an error before any work)."""
+    if args.rerun is None and not args.rerun_spawn:
+        return []
+    from tactile_bt import defaults
+    from tactile_bt.mission.recording_rerun import RerunRecorder
+
+    if args.rerun is not None:
+        check_output(args.rerun, force=True, option="--rerun", create_parent=True)
+    rate = args.rerun_rate if args.rerun_rate is not None else defaults.RERUN_RATE_HZ
+    return [RerunRecorder(args.rerun, spawn=args.rerun_spawn, rate_hz=rate)]
+
+
+def _watched(args) -> None:
+    if args.rerun is not None:
+        print(f"  rerun recording in {args.rerun}")
 
 
 def _cmd_tree(args) -> int:
@@ -217,6 +255,15 @@ def _cmd_examples(args) -> int:
             print(f"\n{folder}/  {shipped.FOLDERS[folder]}")
         print(f"  {f.relative:<40} {f.summary if len(f.summary) <= 90 else f.summary[:89] + '…'}")
     print("\n'tactile-bt examples --copy DIR' copies them all into DIR to edit.")
+    return 0
+
+
+def _cmd_compare(args) -> int:
+    from tactile_bt.experiments.compare import write_compare
+
+    md, png = write_compare(args.dirs, args.out)
+    print(md.read_text().split("\n## ")[0].rstrip())
+    print(f"written: {md}, {png}")
     return 0
 
 
@@ -434,6 +481,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", required=True,
                      help="output directory; the outputs of an earlier run there are replaced")
     _plugin_option(run)
+    _watch_options(run)
     run.set_defaults(func=_cmd_run)
 
     live = sub.add_parser("live", help="run a tree on a real sensor and arm (or on 'tactile-bt twin'), paced by "
@@ -454,6 +502,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="edge orientation method (default: moments)")
     live.add_argument("--out", required=True, help="output directory")
     _plugin_option(live)
+    _watch_options(live)
     live.set_defaults(func=_cmd_live)
 
     twin = sub.add_parser("twin", help="serve a scene's simulator in real time as hardware: a ROS 2 arm and a "
@@ -482,6 +531,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
     _plugin_option(replay)
+    _watch_options(replay)
     replay.set_defaults(func=_cmd_replay)
 
     tree = sub.add_parser("tree", help="validate and print a YAML tree")
@@ -533,6 +583,13 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run the runs whose row in DIR/results.csv is an error again")
     _plugin_option(sweep)
     sweep.set_defaults(func=_cmd_sweep)
+
+    compare = sub.add_parser("compare", help="runs side by side: their reports (compare.md) and errors (compare.png)")
+    compare.add_argument("dirs", nargs="+", metavar="DIR",
+                         help="output directories of 'run' or 'replay'; a sweep's (with --keep-runs) counts as all "
+                              "its runs")
+    compare.add_argument("--out", required=True, metavar="DIR", help="where compare.md and compare.png go")
+    compare.set_defaults(func=_cmd_compare)
 
     acc = sub.add_parser("accuracy", help="feature accuracy on synthetic contacts (paper Fig. 4)")
     acc.add_argument("--trials", type=positive_int, default=20, help="synthetic contacts per angle (default: 20)")

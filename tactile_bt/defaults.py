@@ -104,3 +104,8 @@ SUPERVISOR_SENSOR_SILENCE_S: float = 0.04
 SUPERVISOR_POSE_STALE_S: float = 0.04
 #: Longest silence and pose age a scene or run may declare (s).
 SUPERVISOR_MAX_STALE_S: float = 1.0
+
+# --- Watching a mission ------------------------------------------------------------------------
+#: Rate (Hz of mission time) at which ``--rerun`` logs the force image, the features and the
+#: pad's pose; node status changes are logged at every tick.
+RERUN_RATE_HZ: float = 50.0

@@ -59,7 +59,9 @@ def test_report_and_files(cable_run):
     assert report["ticks"] == 5 * 250
     log = np.load(out / "log.npz")
     assert len(log["t"]) == report["ticks"]
-    assert all(len(log[k]) == len(log["t"]) for k in log.files)
+    per_node = {"node_names", "node_depth"}  # one entry per node of the tree
+    assert all(len(log[k]) == len(log["t"]) for k in log.files if k not in per_node)
+    assert log["node_status"].shape == (len(log["t"]), len(log["node_names"]))
     names, points = read_ply_points(out / "contacts.ply")
     assert names[:6] == ["x", "y", "z", "nx", "ny", "nz"]
     assert len(points) == report["contacts"]

@@ -7,6 +7,7 @@
 * the closed-loop cable mission (on the compliant arm and on the ideal mount) and the stripe
   scan of the ellipsoid against real time at 250 Hz, with where the time goes per cycle (each
   stage also as its share of the 4 ms cycle);
+* the cable mission with and without the per-tick log of every node's status, alternated;
 * the README's main command (``tactile-bt run`` of the cable mission) in a fresh process, first
   with an empty cache of compiled kernels (``NUMBA_CACHE_DIR`` a new directory: what a fresh
   install pays once) and then with the cache filled, against the mission time;
@@ -33,7 +34,7 @@ import numpy as np
 from tactile_bt import defaults, shipped
 
 __all__ = ["run_bench", "format_bench", "bench_reconstruction", "bench_sweep", "bench_mission", "bench_scan",
-           "bench_first_run"]
+           "bench_first_run", "bench_node_status"]
 
 #: The folder the running tactile_bt is imported from (PYTHONPATH of the fresh processes).
 IMPORT_ROOT = Path(__file__).resolve().parents[2]
@@ -195,6 +196,22 @@ def bench_mission(duration: float = 20.0, ideal: bool = False, stage_seconds: fl
         "target_real_time_factor": 25.0,
         **_stages(_cable_tree(ideal), SCENE, overrides, min(duration, stage_seconds)),
     }
+
+
+def bench_node_status(duration: float = 20.0, repeats: int = 3) -> dict:
+    """The cable mission on the arm with and without the node status log (``node_status``),
+    alternated ``repeats`` times in this process; each real-time factor is the best of its runs
+    (the least disturbed by other work on the machine)."""
+    from tactile_bt.mission.run import run_mission
+
+    rtf = {True: [], False: []}
+    for _ in range(repeats):
+        for logged in (False, True):
+            result = run_mission(_cable_tree(False), SCENE, duration=duration, seed=0, node_status=logged)
+            rtf[logged].append(result.summary.real_time_factor)
+    with_, without = max(rtf[True]), max(rtf[False])
+    return {"mission_s": duration, "repeats": repeats, "real_time_factor_with": with_,
+            "real_time_factor_without": without, "drop": 1.0 - with_ / without, "target_drop": 0.05}
 
 
 def bench_scan(duration: float = 240.0, stage_seconds: float = 5.0) -> dict:
@@ -374,6 +391,7 @@ def run_bench(quick: bool = False) -> dict:
         "control_cycle": bench_control_cycle(repeats, 200 if quick else 1000),
         "cable_mission": bench_mission(5.0 if quick else 20.0),
         "cable_mission_ideal_mount": bench_mission(5.0 if quick else 20.0, ideal=True),
+        "node_status": bench_node_status(5.0 if quick else 20.0, repeats=2 if quick else 3),
         "stripe_scan": bench_scan(30.0 if quick else 240.0),
         "first_run": bench_first_run(5.0 if quick else None),
         "mesh_scene": bench_mesh_scene(),
@@ -400,6 +418,11 @@ def format_bench(figures: dict) -> str:
         shares = m.get("share_of_cycle_period", {})
         lines.append("  per cycle: " + ", ".join(
             f"{k} {v:.0f} µs" + (f" ({shares[k]:.1%})" if k in shares else "") for k, v in m["per_cycle_us"].items()))
+    if "node_status" in figures:
+        s = figures["node_status"]
+        lines.append(f"node status log     cable mission {s['real_time_factor_without']:.1f}x real time without, "
+                     f"{s['real_time_factor_with']:.1f}x with, {s['drop']:.1%} slower (target < {s['target_drop']:.0%}; "
+                     f"best of {s['repeats']} alternated runs of {s['mission_s']:g} s)")
     if "first_run" in figures:
         r = figures["first_run"]
         lines.append(f"first run           {r['cold_cache_s']:.1f} s with an empty kernel cache, {r['warm_cache_s']:.1f} s "

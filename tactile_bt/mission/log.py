@@ -4,7 +4,9 @@ When the pad is on the arm, :meth:`MissionLog.track_joints` adds per-cycle serie
 ``joints_rad`` (actual joint angles, rad), ``joint_saturated`` (joints the resolved-rate solve
 held on a position limit, bool) and ``rate_residual`` (commanded minus realised hybrid twist of
 the pad centre, m/s and rad/s, world frame); :mod:`tactile_bt.mission.joints` turns the last two
-into the report's joint-limit warnings.
+into the report's joint-limit warnings. :meth:`MissionLog.track_nodes` adds the status of
+every node of the tree per tick (``node_names``, ``node_depth``, ``node_status``;
+:mod:`tactile_bt.mission.node_status`).
 
 Layer: mission.
 """
@@ -14,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from tactile_bt import defaults
+from tactile_bt.mission.node_status import NodeStatusLog
 
 __all__ = ["MissionLog"]
 
@@ -55,6 +58,14 @@ class MissionLog:
         self.rate_residual: np.ndarray | None = None  # (n, 6) m/s, rad/s
         #: ``(q_min, q_max)`` of the arm's joints (rad), when they are tracked.
         self.joint_limits: tuple[np.ndarray, np.ndarray] | None = None
+        #: Status of every node per tick, when tracked (:meth:`track_nodes`).
+        self.nodes: NodeStatusLog | None = None
+
+    def track_nodes(self, root) -> NodeStatusLog:
+        """Log the status of every node under ``root`` (a py_trees behaviour) at every
+        :meth:`write`; returns the node log."""
+        self.nodes = NodeStatusLog(root, self.scalars["t"].shape[0])
+        return self.nodes
 
     def track_joints(self, n_joints: int, limits: tuple | None = None) -> None:
         """Log the arm's joints as well (:meth:`write_joints`); ``limits``: ``(q_min, q_max)`` in rad."""
@@ -96,6 +107,8 @@ class MissionLog:
         self.twist[k] = twist_s
         self.position[k] = pose[:3, 3]
         self.rotation[k] = pose[:3, :3]
+        if self.nodes is not None:
+            self.nodes.record(k)
         self.n = k + 1
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -108,4 +121,6 @@ class MissionLog:
             out["joints_rad"] = self.joints[:n].copy()
             out["joint_saturated"] = self.joint_saturated[:n].copy()
             out["rate_residual"] = self.rate_residual[:n].copy()
+        if self.nodes is not None:
+            out.update(self.nodes.arrays())
         return out

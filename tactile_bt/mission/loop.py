@@ -72,6 +72,8 @@ class ControlLoop:
         tree.setup()
         leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
         self._orientation_leaves = tuple(b for b in leaves if "orientation" in b.uses)
+        #: The last cycle's force image (N per tactel), raw and smoothed features, for watchers.
+        self.image = None
         self.features_raw = None
         self.features = None
         #: With ``profile=True``: accumulated seconds in perception (calibrate, extract,
@@ -97,7 +99,7 @@ class ControlLoop:
         if clock:
             t1 = clock()
         write_cycle(t, pose, f_raw, f)  # the keys ``writer`` registered, through the adapter's fast path
-        self.features_raw, self.features = f_raw, f
+        self.image, self.features_raw, self.features = image, f_raw, f
         command = self.command
         command.clear()
         tick(self.tree)

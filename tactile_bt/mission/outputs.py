@@ -1,4 +1,4 @@
-"""Mission outputs: report.json, log.npz, errors.png and contacts.ply; for a scan (a mission
+"""Mission outputs: report.json, log.npz, errors.png, tree.png and contacts.ply; for a scan (a mission
 whose tree or run reconstructs a surface) also surface.ply and render.png.
 
 Layer: mission.
@@ -20,7 +20,7 @@ from tactile_bt import defaults
 __all__ = ["OUTPUT_FILES", "prepare_output_dir", "plot_errors", "write_outputs"]
 
 #: Every file a mission may write into its output directory.
-OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "contacts.ply", "surface.ply", "render.png")
+OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "tree.png", "contacts.ply", "surface.ply", "render.png")
 
 
 def prepare_output_dir(out: str | Path) -> Path:
@@ -113,6 +113,12 @@ def write_outputs(result, out: Path, render: bool = True) -> None:
     if len(result.contact_data):
         write_ply(out / "contacts.ply", result.contact_data)
     plot_errors(result, out / "errors.png")
+    if "node_status" in result.log:
+        from tactile_bt.mission.tree_plot import plot_tree_status
+
+        report = result.summary
+        plot_tree_status(result.log, report.status, report.reason, path=out / "tree.png",
+                         title=f"{Path(report.tree).stem}: node status, seed {report.seed}")
     surface = getattr(result, "surface", None)
     if surface is not None and len(surface.faces):
         from tactile_bt.contacts.reconstruct import write_surface

@@ -26,7 +26,8 @@ __all__ = ["replay_mission"]
 
 
 def replay_mission(tree, recording: str | Path, calibration: TactelCalibration | str | Path | None = None,
-                   speed: float | None = None, orientation_method: str = "moments", out: str | Path | None = None):
+                   speed: float | None = None, orientation_method: str = "moments", out: str | Path | None = None,
+                   watchers=()):
     """Run ``tree`` on the frames of ``recording``; returns a :class:`~tactile_bt.mission.result.MissionResult`.
 
     Parameters
@@ -41,6 +42,9 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     speed : float, optional
         ``None`` as fast as possible, ``1.0`` at the recorded pace, ``2.0`` twice as fast.
         The results do not depend on it.
+    watchers : sequence of MissionWatcher
+        Shown every cycle, as in :func:`~tactile_bt.mission.run.run_mission` (e.g. the rerun
+        recording).
 
     The tree finds the set-up the mission had on the blackboard: the table height a mission
     recording holds (``/setup/table_z_m``; NaN for a recording of the sensor alone).
@@ -56,6 +60,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     from tactile_bt.mission.loop import ControlLoop, root_outcome
     from tactile_bt.mission.result import finish_mission
     from tactile_bt.mission.run import calibration_path
+    from tactile_bt.mission.watch import finish_watchers, start_watchers
     from tactile_bt.tree.behaviours.table import write_table_height
 
     if speed is not None and not (math.isfinite(speed) and speed > 0):
@@ -108,6 +113,8 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
     write_table_height(_table_height(rec.metadata, recording))  # the set-up the mission had
     loop = ControlLoop(tree, calibration, dt, orientation_method, pad=pad)
     log = MissionLog(n)
+    log.track_nodes(tree.root)
+    watchers = start_watchers(watchers, loop, log)
     status, reason, wall_start = "completed", "", time.perf_counter()
     try:
         for k in range(n):
@@ -118,10 +125,15 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
             pose = rec.poses[k] if np.all(np.isfinite(rec.poses[k])) else np.eye(4)
             twist = loop.cycle(rec.values[k], pose, float(t[k]))
             log.write(k, float(t[k]), loop, twist, pose)
+            for watcher in watchers:
+                watcher.cycle(k, float(t[k]), loop, log)
             outcome = root_outcome(tree.root)
             if outcome is not None:
                 status, reason = outcome
                 break
+    except BaseException:
+        finish_watchers(watchers, None)
+        raise
     finally:
         tree.interrupt()
     result = finish_mission(tree, log, loop.contacts, status, reason, wall_start, float(t[log.n - 1]) + dt,
@@ -129,6 +141,7 @@ def replay_mission(tree, recording: str | Path, calibration: TactelCalibration |
                             recording=str(recording), warnings=notes)
     if out is not None:
         result.save(out)
+    finish_watchers(watchers, result)
     return result
 
 

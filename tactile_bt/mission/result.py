@@ -33,7 +33,9 @@ class MissionResult:
     summary : MissionReport
         The typed report; :attr:`report` is its dict, the content of ``report.json``.
     log : dict of numpy arrays
-        Time series keyed by name, all with the ``t`` array's length.
+        Time series keyed by name, all with the ``t`` array's length, and the tree's nodes:
+        ``node_names``, ``node_depth`` (one per node) and ``node_status`` (ticks × nodes;
+        :mod:`tactile_bt.mission.node_status`).
     contact_data : (N, 8) array
         World points (m), outward surface normals, pressure (Pa) and mission time (s) of every
         sample ``record_contacts`` took.

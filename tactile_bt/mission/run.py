@@ -15,7 +15,7 @@ import contextlib
 import math
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import py_trees
@@ -27,6 +27,7 @@ from tactile_bt.mission.log import MissionLog
 from tactile_bt.mission.loop import ControlLoop, root_outcome
 from tactile_bt.mission.result import MissionResult, finish_mission
 from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
+from tactile_bt.mission.watch import MissionWatcher, finish_watchers, start_watchers
 from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
@@ -73,6 +74,8 @@ def run_mission(
     scan_region: dict | None = None,
     params: list[str] | None = None,
     blackboard: list[str] | None = None,
+    node_status: bool = True,
+    watchers: Sequence[MissionWatcher] = (),
 ) -> MissionResult:
     """Run a tree against a simulated scene.
 
@@ -119,6 +122,12 @@ def run_mission(
     blackboard : list of ``KEY=VALUE``, optional
         Blackboard keys the tree reads, written before it starts, as ``--blackboard``; only with a
         tree file.
+    node_status : bool
+        Log every node's status per tick (``node_names``, ``node_status`` in the log, and
+        ``tree.png``); False only to measure what that costs.
+    watchers : sequence of MissionWatcher
+        Shown every cycle (:mod:`tactile_bt.mission.watch`), e.g. the rerun recording
+        (:class:`~tactile_bt.mission.recording_rerun.RerunRecorder`).
     """
     kernel_build.start()  # on a cold kernel cache: a second process starts compiling kernels
     tree, scene = _resolve(tree, scene, overrides, params, blackboard)
@@ -149,6 +158,8 @@ def run_mission(
     arm_state = getattr(world.mount, "saturation", None)  # the arm: saturated joints, unrealised twist
     if joints is not None:
         log.track_joints(len(joints()), getattr(world.mount, "limits", None))
+    if node_status:
+        log.track_nodes(tree.root)
     status = "completed"
     reason = ""
     progress_every = max(1, int(scene.rate_hz / 20))
@@ -166,6 +177,7 @@ def run_mission(
                                                 metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
                                                           "pitch_m": pad.pitch,
                                                           "table_z_m": None if math.isnan(table_z_m) else table_z_m}))
+    watchers = start_watchers(watchers, loop, log, scene)
     wall_start = time.perf_counter()
     try:
         for k in range(n_cycles):
@@ -184,6 +196,8 @@ def run_mission(
             log.write(k, t, loop, twist_s, pose, world.last_penetration)
             if joints is not None:
                 log.write_joints(k, joints(), *(arm_state() if arm_state is not None else ()))
+            for watcher in watchers:
+                watcher.cycle(k, t, loop, log)
             if progress is not None and k % progress_every == 0:
                 progress(t, duration)
             outcome = supervisor.outcome or root_outcome(tree.root)
@@ -199,6 +213,7 @@ def run_mission(
                                 seed=seed, scan=scan, supervision=supervisor.summary())
         if out is not None:
             result.save(out)
+        finish_watchers(watchers, result)
         raise
     finally:
         supervisor.stop()  # the mount's last command is a zero twist, however the mission ends
@@ -208,6 +223,7 @@ def run_mission(
                             scan=scan, supervision=supervisor.summary())
     if out is not None:
         result.save(out)
+    finish_watchers(watchers, result)
     return result
 
 
