@@ -106,7 +106,7 @@ def plot_realtime(log: RealtimeLog, dt: float, path: str | Path) -> Path:
 def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: float | None = None,
              out: str | Path | None = None, truth=None, record: str | Path | None = None,
              module: str | None = None, orientation_method: str = "moments", robot_backend=None,
-             progress=None):
+             progress=None, watchers=()):
     """Run ``tree`` on a real sensor and arm; returns a :class:`~tactile_bt.mission.result.MissionResult`.
 
     Parameters
@@ -131,6 +131,8 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
         A robot that satisfies :class:`~tactile_bt.robot.interface.Robot` to use instead of the
         one the robot file describes (tests, other backends).
     progress : callable(t, duration), optional
+    watchers : sequence of MissionWatcher
+        Shown every cycle (e.g. the ``--rerun`` recording, :mod:`tactile_bt.mission.watch`).
     """
     import contextlib
 
@@ -139,6 +141,8 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     from tactile_bt.mission.result import finish_mission
     from tactile_bt.mission.run import MAX_CYCLES, calibration_path
     from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
+    from tactile_bt.mission.watch import finish_watchers, start_watchers
+    from tactile_bt.sim import warmup
     from tactile_bt.sense.calibration import TactelCalibration
     from tactile_bt.sense.geometry import PadGeometry
     from tactile_bt.sense.hardware.driver import SerialTactileSensor
@@ -146,6 +150,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     from tactile_bt.tree.behaviours.table import write_table_height
     from tactile_bt.tree.loader import load_tree
 
+    warmup.start()  # on a cold kernel cache, compile now: never in the first cycles on the arm
     setup = robot if isinstance(robot, RobotFile) else load_robot_file(robot)
     dt = 1.0 / setup.rate_hz
     if out is not None:
@@ -166,7 +171,10 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     limits = SupervisorLimits.for_tree(tree, setup.supervisor)
     n_cycles = MAX_CYCLES if duration is None else int(round(duration * setup.rate_hz))
     log = MissionLog(n_cycles)
+    log.track_nodes(tree.root)
     realtime = RealtimeLog()
+    warmup.finish()
+    _warm_perception(calibration, pad, orientation_method)
     stack = contextlib.ExitStack()
     status, reason, t = "completed", "", 0.0
     supervisor = robot_obj = None
@@ -191,6 +199,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
                 "table_z_m": None if math.isnan(setup.table_z_m) else setup.table_z_m}))
         loop = ControlLoop(tree, calibration, dt, orientation_method, pad=pad)
         supervisor = Supervisor(limits)
+        watchers = start_watchers(watchers, loop, log, scene)
         frame = link.read(FIRST_FRAME_TIMEOUT_S)
         t_start = frame.timestamp
         joints = getattr(robot_obj, "joint_state", lambda: None)()
@@ -218,6 +227,8 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
             robot_obj.send_twist(body_to_spatial(pose.T_gs, twist_s))
             realtime.add(frame.timestamp, started, time.monotonic())
             log.write(k, t, loop, twist_s, pose.T_gs)
+            for watcher in watchers:
+                watcher.cycle(k, t, loop, log)
             if joints is not None:
                 state = robot_obj.joint_state()
                 if state is not None:
@@ -248,13 +259,30 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
                                     status, reason, wall_start, t, scene=scene,
                                     warnings=notes, supervision=None if supervisor is None else supervisor.summary())
             result.summary.realtime = realtime_summary(realtime, dt) if realtime.sent else None
+            if realtime.sent:
+                arrays = realtime.arrays()
+                n = len(result.log["t"])
+                result.log["latency_s"] = arrays["latency_s"][:n]
+                result.log["compute_s"] = arrays["compute_s"][:n]
             if out is not None:
                 result.save(out)
                 if realtime.sent:
                     plot_realtime(realtime, dt, Path(out) / "realtime.png")
+            finish_watchers(watchers if isinstance(watchers, tuple) else (), result)
     for note in notes:
         warnings.warn(note, stacklevel=2)
     return result
+
+
+def _warm_perception(calibration, pad, orientation_method: str) -> None:
+    """Run perception once on an empty and on a pressed frame, so that its kernels are loaded
+    before the first cycle on the arm (a first call costs tens of ms)."""
+    from tactile_bt.perception.features import extract
+
+    for image in (np.zeros(pad.shape), np.pad(np.full((3, 8), 0.05), ((6, 7), (4, 4)))):
+        for method in (None, orientation_method):
+            extract(image, defaults.CONTACT_THRESHOLD_N, method, pad=pad)
+    calibration.force_from_raw(np.zeros(pad.shape, dtype=np.uint16))
 
 
 def _empty_cloud():
