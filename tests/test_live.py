@@ -1,0 +1,152 @@
+"""Live missions end to end: ``tactile-bt live`` against the real-time twin (``tactile-bt twin``),
+over ROS 2 on this host and the emulated sensor on a pty, with the faults a real set-up has."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rclpy", reason="the ros2 extra (in the test extra) brings rclpy")
+
+pytestmark = pytest.mark.slow
+CABLE_TREE = "trees/cable_follow.yaml"
+
+
+def _env(domain: int) -> dict:
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               FASTDDS_BUILTIN_TRANSPORTS="SHM", MPLBACKEND="Agg")
+    env.pop("PYTHONSTARTUP", None)
+    return env
+
+
+@contextlib.contextmanager
+def twin(scene: str, out: Path, *extra: str, domain: int):
+    """A running twin: yields (port, robot file, process); SIGTERM and wait at the end."""
+    proc = subprocess.Popen([sys.executable, "-m", "tactile_bt.cli", "twin", scene, "--out", str(out), *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(domain))
+    try:
+        port = proc.stdout.readline().strip()
+        assert port.startswith("/dev/"), f"the twin printed {port!r}: {proc.stderr.read() if proc.poll() else ''}"
+        assert (out / "robot.yaml").is_file()  # written before the port
+        yield port, out / "robot.yaml", proc
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def live(tree: str, port: str, robot: Path, out: Path, *extra: str, domain: int) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "tactile_bt.cli", "live", tree, "--sensor", port, "--robot",
+                             str(robot), "--out", str(out), *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(domain))
+
+
+def _domain(request) -> int:
+    """A ROS domain of the test's own, so that two runs on one host never hear each other."""
+    return 1 + (abs(hash(request.node.nodeid)) + os.getpid()) % 200
+
+
+def test_live_against_the_twin_follows_the_whole_cable(tmp_path, request):
+    domain = _domain(request)
+    with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
+        proc = live(CABLE_TREE, port, robot, tmp_path / "live", "--truth", "sim/cable.yaml", "--duration", "60",
+                    domain=domain)
+        out, err = proc.communicate(timeout=180)
+    report = json.loads((tmp_path / "live" / "report.json").read_text())
+    assert report["status"] == "success" and report["reason"].startswith("cable_end"), (report["reason"], err[-2000:])
+    path = report["path_error_m"]
+    assert path["mean"] <= 1e-3 and path["max"] <= 3e-3
+    assert path["followed_m"] >= 0.85 * path["cable_length_m"]
+    rt = report["realtime"]
+    for key in ("latency_ms", "period_ms", "jitter_ms"):
+        assert {"p50", "p90", "p99", "max"} <= set(rt[key])
+    assert rt["period_ms"]["p50"] == pytest.approx(4.0, abs=0.5)  # paced by the sensor's 250 Hz frames
+    for name in ("log.npz", "errors.png", "realtime.png", "contacts.ply", "tree.png"):
+        assert (tmp_path / "live" / name).stat().st_size > 0, name
+    recorded = np.load(tmp_path / "twin" / "twin.npz")
+    np.testing.assert_array_equal(recorded["command_twist"][-1], np.zeros(6))  # the last twist: zero
+
+
+def _wait_for_commands(twin_out: Path, proc: subprocess.Popen, seconds: float) -> None:
+    time.sleep(seconds)
+    assert proc.poll() is None, proc.stderr.read()
+
+
+def test_sigterm_stops_the_robot_and_writes_the_outputs(tmp_path, request):
+    domain = _domain(request)
+    with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
+        proc = live(CABLE_TREE, port, robot, tmp_path / "live", domain=domain)
+        _wait_for_commands(tmp_path / "twin", proc, 4.0)
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=30)
+        assert proc.returncode != 0
+        time.sleep(0.3)
+    report = json.loads((tmp_path / "live" / "report.json").read_text())
+    assert report["status"] == "interrupted" and report["ticks"] > 100
+    recorded = np.load(tmp_path / "twin" / "twin.npz")
+    assert len(recorded["command_twist"]) > 100
+    np.testing.assert_array_equal(recorded["command_twist"][-1], np.zeros(6))
+
+
+def test_the_twin_holds_within_100_ms_when_live_is_killed(tmp_path, request):
+    domain = _domain(request)
+    with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
+        proc = live(CABLE_TREE, port, robot, tmp_path / "live", domain=domain)
+        _wait_for_commands(tmp_path / "twin", proc, 5.0)  # following the cable at 20 mm/s by now
+        proc.kill()
+        proc.wait()
+        time.sleep(1.0)
+    recorded = np.load(tmp_path / "twin" / "twin.npz")
+    last = recorded["command_time_s"][-1]
+    assert np.abs(recorded["command_twist"][-1][:3]).max() > 1e-3  # it was moving when killed
+    t, poses = recorded["pose_time_s"], recorded["pose"]
+    after = t > last + 0.1 + 2.0 / float(recorded["rate_hz"])
+    assert after.sum() > 50
+    drift = np.linalg.norm(poses[after][:, :3, 3] - poses[after][0, :3, 3], axis=1).max()
+    assert drift < 0.2e-3  # still (the compliant arm settles by a fraction of a mm)
+
+
+def test_a_silent_sensor_ends_the_mission_within_five_periods(tmp_path, request):
+    domain = _domain(request)
+    with twin("sim/cable.yaml", tmp_path / "twin", "--stall-after", "4", domain=domain) as (port, robot, _):
+        proc = live(CABLE_TREE, port, robot, tmp_path / "live", domain=domain)
+        proc.communicate(timeout=60)
+        time.sleep(0.3)
+    report = json.loads((tmp_path / "live" / "report.json").read_text())
+    assert report["status"] == "failure" and "sensor silent" in report["reason"], report["reason"]
+    log = np.load(tmp_path / "live" / "log.npz")
+    recorded = np.load(tmp_path / "twin" / "twin.npz")
+    np.testing.assert_array_equal(recorded["command_twist"][-1], np.zeros(6))
+    # from the last frame the loop had to the zero twist: within 5 periods of 4 ms
+    stop = recorded["command_time_s"][-1] - recorded["command_time_s"][-2]
+    assert stop <= 5 * 0.004 + 0.004, stop
+    assert len(log["t"]) > 100
+
+
+def test_pushing_into_a_stiff_object_the_supervisor_retreats_and_names_the_limit(tmp_path, request):
+    tree = tmp_path / "push.yaml"
+    tree.write_text("root:\n  guided_slide: {twist: [0, 0, 0.01, 0, 0, 0], require_contact: false}\n")
+    domain = _domain(request)
+    with twin("sim/pen.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
+        proc = live(str(tree), port, robot, tmp_path / "live", "--duration", "20", domain=domain)
+        proc.communicate(timeout=60)
+        time.sleep(0.3)
+    report = json.loads((tmp_path / "live" / "report.json").read_text())
+    assert report["status"] == "failure" and "limit" in report["reason"], report["reason"]
+    assert report["supervisor"]["interventions"] >= 1 and report["supervisor"]["retreat_time_s"] > 0
+    recorded = np.load(tmp_path / "twin" / "twin.npz")
+    assert (recorded["command_twist"][:, 2] < 0).any()  # a retreat went out, away from the object
+    np.testing.assert_array_equal(recorded["command_twist"][-1], np.zeros(6))
