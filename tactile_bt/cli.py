@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt.arguments import check_output, check_output_dir, nonnegative_int, one_line_warnings, positive_float, positive_int
+from tactile_bt.arguments import (OneLineParser, check_output, check_output_dir, nonnegative_int, one_line_warnings,
+                                  positive_float, positive_int)
 from tactile_bt.errors import TactileBtError
 
 __all__ = ["main", "console"]
@@ -286,7 +287,7 @@ def _executor_options(parser: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from tactile_bt import __version__
 
-    parser = argparse.ArgumentParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
+    parser = OneLineParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 

@@ -47,6 +47,31 @@ def test_bad_option_values_end_with_one_error_line(argv, option, tmp_path, capsy
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("argv, words", [
+    (["run", FORCE_HOLD], ["tactile-bt run: error:", "--scene", "--out"]),
+    (["run", FORCE_HOLD, "--scene", PEN, "--out", "OUT", "--duration", "-3"], ["tactile-bt run: error:", "--duration"]),
+    (["view"], ["tactile-bt view: error:", "dir"]),
+    (["frobnicate"], ["tactile-bt: error:", "frobnicate"]),
+    (["sensor", "stream", "--rate", "fast"], ["tactile-bt sensor stream: error:", "--rate"]),
+])
+def test_argument_errors_are_one_line_without_the_usage_block(argv, words, tmp_path, capsys):
+    argv = [str(tmp_path / "out") if a == "OUT" else a for a in argv]
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "usage:" not in err, err
+    assert all(word in err for word in words), err
+    assert "--help" in err
+
+
+def test_help_still_shows_the_usage(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["run", "--help"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: tactile-bt run")
+
+
 @pytest.mark.parametrize("duration", ["1e-9", "1e7"])
 def test_a_budget_of_no_cycle_or_too_many_is_refused(duration, tmp_path, capsys):
     assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", duration, "--out", str(tmp_path / "out")]) == 2
