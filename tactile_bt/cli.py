@@ -15,7 +15,7 @@ import numpy as np
 
 from tactile_bt.arguments import (OneLineParser, check_output, check_output_dir, nonnegative_int, one_line_warnings,
                                   positive_float, positive_int)
-from tactile_bt.errors import TactileBtError
+from tactile_bt.errors import MissionInterrupted, TactileBtError
 
 __all__ = ["main", "console"]
 
@@ -406,11 +406,10 @@ def main(argv: list[str] | None = None) -> int:
     except FileNotFoundError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        out = getattr(args, "out", None)
-        kept = f"; the outputs of every cycle so far are in {out}" if out and args.command == "run" else ""
+    except KeyboardInterrupt as exc:
+        where = f" {exc.describe()}" if isinstance(exc, MissionInterrupted) else ""  # what DIR holds now
         lead = "\n" if sys.stderr.isatty() else ""  # below a progress bar
-        print(f"{lead}interrupted{kept}", file=sys.stderr)
+        print(f"{lead}interrupted{where}", file=sys.stderr)
         return 130
 
 

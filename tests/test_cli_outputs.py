@@ -174,6 +174,49 @@ def test_ctrl_c_keeps_every_cycle_so_far(tmp_path, capsys, monkeypatch):
     assert len(np.load(out / "log.npz")["t"]) == report["ticks"]
 
 
+@pytest.mark.parametrize("earlier", [(), ("report.json", "log.npz")])
+def test_ctrl_c_while_the_scene_loads_claims_no_outputs(earlier, tmp_path, capsys, monkeypatch):
+    """Nothing of this run exists yet: the message says so, and names what an earlier run left."""
+    import tactile_bt.sim.scene
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tactile_bt.sim.scene, "load_scene", interrupt)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in earlier:
+        (out / name).write_text("an earlier run")
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "5", "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "every cycle" not in err, err
+    assert err.startswith("interrupted before the mission started; nothing was written")
+    if earlier:
+        assert err.endswith(f"{out} still holds an earlier run's report.json, log.npz"), err
+    assert sorted(p.name for p in out.iterdir()) == sorted(earlier)
+    assert all((out / name).read_text() == "an earlier run" for name in earlier)
+
+
+def test_ctrl_c_in_the_mission_leaves_only_this_runs_outputs_and_names_them(tmp_path, capsys, monkeypatch):
+    import tactile_bt.progress
+
+    def interrupt(self, done, total=None, note=""):
+        if done > 0.2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(tactile_bt.progress.Progress, "__call__", interrupt)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in OUTPUT_FILES:  # as an earlier scan left them
+        (out / name).write_text("stale")
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "5", "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip()
+    written = sorted(p.name for p in out.iterdir())
+    assert written == sorted(["report.json", "log.npz", "errors.png"])  # a force hold records no contacts
+    assert err.startswith("interrupted at 0.2") and f"{out} holds this run's report.json, log.npz, errors.png" in err
+    assert json.loads((out / "report.json").read_text())["status"] == "interrupted"
+
+
 def test_progress_off_a_terminal_is_one_line_now_and_then():
     import io
 

@@ -17,7 +17,7 @@ from tactile_bt.contacts.ply import write_ply
 from tactile_bt.arguments import check_output_dir
 from tactile_bt import defaults
 
-__all__ = ["OUTPUT_FILES", "prepare_output_dir", "plot_errors", "write_outputs"]
+__all__ = ["OUTPUT_FILES", "prepare_output_dir", "present_outputs", "plot_errors", "write_outputs"]
 
 #: Every file a mission may write into its output directory.
 OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "contacts.ply", "surface.ply", "render.png")
@@ -37,6 +37,11 @@ def prepare_output_dir(out: str | Path) -> Path:
         if stale.is_file() or stale.is_symlink():
             stale.unlink()
     return out
+
+
+def present_outputs(out: str | Path) -> tuple[str, ...]:
+    """The names of the :data:`OUTPUT_FILES` that are in ``out`` now, in their order."""
+    return tuple(name for name in OUTPUT_FILES if (Path(out) / name).is_file())
 
 
 def _jsonable(value):
