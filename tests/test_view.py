@@ -51,3 +51,21 @@ def test_a_scan_mission_writes_its_surface_and_a_render_that_shows_it(tmp_path):
     assert main(["view", str(tmp_path), "--png", str(tmp_path / "no_surface.png")]) == 0
     without = _orange_share(mpimg.imread(tmp_path / "no_surface.png")[..., :3])
     assert with_surface > 0.005 and with_surface > 3 * without
+
+
+def test_view_without_a_display_says_so_and_points_to_png(tmp_path, capsys, monkeypatch):
+    run_mission(ROOT / "trees" / "force_hold.yaml", ROOT / "sim" / "pen.yaml", duration=0.2, out=tmp_path)
+    monkeypatch.setattr("sys.platform", "linux")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no display" in err and f"--png {tmp_path / 'render.png'}" in err, err
+
+
+def test_view_of_a_missing_directory_names_it(tmp_path, capsys):
+    missing = tmp_path / "nothing"
+    assert main(["view", str(missing), "--png", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {missing}: no such file or directory"), err
+    assert f"is {tmp_path} the output" not in err

@@ -12,13 +12,15 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.errors import CommandLineError
 from tactile_bt.mission.report import MissionReport
 
-__all__ = ["render_mission", "MAX_POINTS_SHOWN"]
+__all__ = ["render_mission", "has_display", "MAX_POINTS_SHOWN"]
 
 #: Largest number of contact points drawn (a scan records tens of thousands).
 MAX_POINTS_SHOWN = 6000
@@ -27,6 +29,14 @@ MAX_POINTS_SHOWN = 6000
 #: tenth of a millimetre in) does not veil them. Only the picture; the files are untouched.
 SURFACE_LIFT_M = 0.001
 POINT_LIFT_M = 0.002
+
+
+def has_display() -> bool:
+    """Whether a window can open: always on macOS and Windows; on Linux and other Unixes, when
+    an X or Wayland display is set (``DISPLAY``, ``WAYLAND_DISPLAY``)."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def _lifted(vertices: np.ndarray, contacts: np.ndarray, lift: float) -> np.ndarray:
@@ -102,13 +112,19 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
     out_dir : path
         Output directory of ``tactile-bt run``.
     png : path, optional
-        Render off screen into this PNG; without it a window opens.
+        Render off screen into this PNG; without it a window opens (on Linux, a
+        :class:`~tactile_bt.errors.CommandLineError` when there is no display to open it on).
     window_size : (int, int)
         Picture size in pixels.
     color_by : {"time", "pressure"}, optional
         Colour of the contact points: mission time (s) or pressure (Pa). Default: time for a
         scan (the report has ``reconstruction``), pressure otherwise.
     """
+    out = Path(out_dir)
+    report = MissionReport.load(out)
+    if png is None and not has_display():
+        raise CommandLineError(f"no display to open a window on (DISPLAY is not set): render {out} "
+                               f"into a picture with --png FILE, e.g. --png {out / 'render.png'}")
     if png is not None and not os.environ.get("DISPLAY"):
         # Off screen without an X server: go straight to EGL instead of trying X first.
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -117,8 +133,6 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
     from tactile_bt.contacts.ply import read_ply_points
     from tactile_bt.sim.scene import load_scene
 
-    out = Path(out_dir)
-    report = MissionReport.load(out)
     scan = report.reconstruction is not None
     if color_by is None:
         color_by = "time" if scan else "pressure"
