@@ -21,7 +21,7 @@ from difflib import get_close_matches
 from tactile_bt.errors import ParameterTypeError
 
 __all__ = ["ACCEPTED_UNITS", "PAD_UNITS", "TWIST", "VECTOR_UNITS", "accepted_units", "element_unit",
-           "split_quantity", "uses_pad_units", "parse_quantity"]
+           "split_quantity", "uses_pad_units", "parse_quantity", "to_si"]
 
 _DEG = math.pi / 180.0
 #: SI unit → the units a value may carry instead, with their factor to the SI unit. Lengths
@@ -127,3 +127,25 @@ def parse_quantity(text: str, unit: str | None, pitch_m: float | None = None) ->
                                  f"unit {given!r} does not fit a value in {unit}{hint}; "
                                  f"valid units: {', '.join(accepted)}")
     return number * accepted[given]
+
+
+def to_si(value: object, degrees: bool = False) -> object:
+    """``value`` with every quantity written with a unit turned into its SI number, for tables:
+    ``"2.5 kPa"`` → 2500.0, ``"30 mm/s"`` → 0.03, ``"30 deg"`` → 0.5236 (rad; 30.0 with
+    ``degrees``, for the scene's ``*_deg`` fields), ``"1500"`` → 1500.0; lists element by
+    element. Numbers, other text and lengths in tactels (whose size is the pad's) are returned
+    as they are."""
+    if isinstance(value, (list, tuple)):
+        return [to_si(v, degrees) for v in value]
+    if not isinstance(value, str):
+        return value
+    parts = split_quantity(value)
+    if parts is None:
+        return value
+    number, unit = parts
+    if unit is None:
+        return number
+    if degrees and unit in ACCEPTED_UNITS["deg"]:
+        return number * ACCEPTED_UNITS["deg"][unit]
+    table = next((t for si, t in ACCEPTED_UNITS.items() if si != "deg" and unit in t), None)
+    return value if table is None else number * table[unit]
