@@ -232,6 +232,35 @@ def test_progress_off_a_terminal_is_one_line_now_and_then():
     assert "\r" not in stream.getvalue()
 
 
+def test_progress_says_once_that_it_compiles_instead_of_standing_at_zero():
+    import io
+    import time
+
+    from tactile_bt.progress import Progress
+
+    stream = io.StringIO()
+    progress = Progress(40.0, label="mission time", every_s=0.05, delay_s=0.0, stream=stream)
+    progress.stage("compiling kernels")
+    progress.stage("compiling kernels")
+    time.sleep(0.1)  # the compile: longer than every_s
+    progress(0.0)
+    lines = stream.getvalue().splitlines()
+    assert lines == ["mission time: compiling kernels ..."]
+    time.sleep(0.1)
+    progress(20.0)
+    assert stream.getvalue().splitlines()[1].startswith("mission time: 20.0/40.0 s (50 %)")
+
+
+def test_a_run_on_a_cold_kernel_cache_says_it_compiles(tmp_path, capsys, monkeypatch):
+    from tactile_bt.sim import warmup
+
+    monkeypatch.setattr(warmup, "compiling", lambda: True)
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "0.2", "--out", str(tmp_path / "out")]) in (0, 1)
+    err = capsys.readouterr().err
+    assert err.count("mission time: compiling the simulator's kernels (once after an install) ...") == 1, err
+    assert "0.0/0.2" not in err
+
+
 def _shape(node):
     """Type, name and children of a tree, for comparing two authored trees."""
     return (type(node).__name__, node.name, [_shape(c) for c in node.children])

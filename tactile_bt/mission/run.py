@@ -136,6 +136,8 @@ def run_mission(
 
         # ... and the rest here, before the mission's clock starts; waiting on the second process,
         # import what the outputs need
+        if kernel_build.compiling() and hasattr(progress, "stage"):  # not "0 %" for a quarter of a minute
+            progress.stage("compiling the simulator's kernels (once after an install)")
         kernel_build.finish(idle=None if out is None else _import_output_modules)
     except KeyboardInterrupt:
         if out is None:
