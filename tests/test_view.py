@@ -69,3 +69,28 @@ def test_view_of_a_missing_directory_names_it(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith(f"error: {missing}: no such file or directory"), err
     assert f"is {tmp_path} the output" not in err
+
+
+def test_the_render_keys_the_contacts_by_their_colour_bar_and_has_a_scale(tmp_path, monkeypatch):
+    """No legend swatch of one colour for contacts coloured by a map; a ruler in mm for scale."""
+    import pyvista as pv
+
+    from tactile_bt.mission.view import scale_length_m
+
+    seen = {}
+    screenshot = pv.Plotter.screenshot
+
+    def grab(self, *args, **kwargs):  # what the picture holds, before the plotter is closed
+        legend = self.legend
+        seen["legend"] = [legend.GetEntryString(i) for i in range(legend.GetNumberOfEntries())]
+        seen["colour bars"] = list(self.scalar_bars.keys())
+        seen["rulers"] = [a.GetTitle() for a in self.renderer.actors.values() if a.GetClassName() == "vtkAxisActor2D"]
+        return screenshot(self, *args, **kwargs)
+
+    monkeypatch.setattr(pv.Plotter, "screenshot", grab)
+    run_mission(ROOT / "trees" / "cable_follow.yaml", ROOT / "sim" / "cable.yaml", duration=1.5, out=tmp_path)
+    assert main(["view", str(tmp_path), "--png", str(tmp_path / "render.png")]) == 0
+    assert seen["legend"] and not any("contact" in label for label in seen["legend"]), seen
+    assert seen["colour bars"] == ["contacts: pressure (Pa)"]
+    assert len(seen["rulers"]) == 1 and seen["rulers"][0].endswith(" mm")
+    assert scale_length_m(0.7) == 0.2 and scale_length_m(0.05) == 0.01 and scale_length_m(0.001) == 0.002
