@@ -1,7 +1,8 @@
 """Checks of command-line arguments shared by every ``tactile-bt`` command.
 
 The ``type=`` validators raise :class:`argparse.ArgumentTypeError`, so argparse rejects a bad
-value before anything runs, with one line naming the option. :func:`check_output` checks an
+value before anything runs, with one line naming the option (:class:`OneLineParser`: no usage
+block). :func:`check_output` checks an
 output file before any work (and refuses to overwrite one without ``--force`` where a file is
 precious). :func:`one_line_warnings` shows the :class:`~tactile_bt.errors.RecordingWarning` of a
 replay as ``warning: ...`` lines.
@@ -22,8 +23,18 @@ from typing import Callable, Iterator
 
 from tactile_bt.errors import OutputPathError
 
-__all__ = ["validator", "positive_float", "positive_int", "nonnegative_int", "check_output", "check_output_dir",
+__all__ = ["OneLineParser", "validator", "positive_float", "positive_int", "nonnegative_int", "check_output", "check_output_dir",
            "one_line_warnings"]
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An :class:`argparse.ArgumentParser` whose errors are one line,
+    ``tactile-bt run: error: the following arguments are required: --scene (see 'tactile-bt run --help')``,
+    and exit code 2, instead of the usage block and the message. ``--help`` is unchanged; the
+    parsers of subcommands are of this class too."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
 def validator(convert: Callable[[str], float], ok: Callable[[float], bool], expected: str) -> Callable[[str], float]:

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt.arguments import check_output, check_output_dir, nonnegative_int, one_line_warnings, positive_float, positive_int
-from tactile_bt.errors import TactileBtError
+from tactile_bt.arguments import (OneLineParser, check_output, check_output_dir, nonnegative_int, one_line_warnings,
+                                  positive_float, positive_int)
+from tactile_bt.errors import MissionInterrupted, TactileBtError
 
 __all__ = ["main", "console"]
 
@@ -451,7 +452,7 @@ def _plugin_option(parser: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from tactile_bt import __version__
 
-    parser = argparse.ArgumentParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
+    parser = OneLineParser(prog="tactile-bt", description="Tactile servoing with behaviour trees.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -625,11 +626,10 @@ def main(argv: list[str] | None = None) -> int:
     except FileNotFoundError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        out = getattr(args, "out", None)
-        kept = f"; the outputs of every cycle so far are in {out}" if out and args.command == "run" else ""
+    except KeyboardInterrupt as exc:
+        where = f" {exc.describe()}" if isinstance(exc, MissionInterrupted) else ""  # what DIR holds now
         lead = "\n" if sys.stderr.isatty() else ""  # below a progress bar
-        print(f"{lead}interrupted{kept}", file=sys.stderr)
+        print(f"{lead}interrupted{where}", file=sys.stderr)
         return 130
 
 

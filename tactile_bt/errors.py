@@ -34,6 +34,7 @@ __all__ = [
     "SensorConnectionError",
     "SensorDisconnectedError",
     "UnknownNodeError",
+    "MissionInterrupted",
     "RecordingWarning",
     "PluginError",
     "RobotConnectionError",
@@ -174,6 +175,31 @@ class UnknownNodeError(KeyError):
 
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else ""
+
+
+# --------------------------------------------------------------------------- interruptions
+class MissionInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a mission that writes into an output directory, with what that directory
+    holds now: ``written``, the files this run wrote there (its outputs of every cycle so far),
+    or ``earlier``, the files of an earlier run it had not yet replaced. A
+    :class:`KeyboardInterrupt`, so code that stops on Ctrl-C still does."""
+
+    def __init__(self, out: Any, written: tuple[str, ...] = (), earlier: tuple[str, ...] = (),
+                 sim_time_s: float | None = None) -> None:
+        self.out, self.written, self.earlier, self.sim_time_s = out, tuple(written), tuple(earlier), sim_time_s
+        super().__init__(self.describe())
+
+    def describe(self) -> str:
+        """``"at 3.20 s of mission time; out/cable holds this run's report.json, log.npz (every
+        cycle so far)"``, or what else is true of the directory."""
+        when = (f"at {self.sim_time_s:.2f} s of mission time" if self.sim_time_s is not None
+                else "before the mission started")
+        if self.written:
+            return f"{when}; {self.out} holds this run's {', '.join(self.written)} (every cycle so far)"
+        if self.earlier:
+            return (f"{when}; nothing was written: {self.out} still holds an earlier run's "
+                    f"{', '.join(self.earlier)}")
+        return f"{when}; nothing was written to {self.out}"
 
 
 # --------------------------------------------------------------------------- warnings

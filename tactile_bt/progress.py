@@ -45,12 +45,27 @@ class Progress:
         self._last_line = self.start
         self._bar = None
         self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self._stages: set[str] = set()
+        self._after_stage = False
+
+    def stage(self, text: str) -> None:
+        """Say, once, what holds the progress at its start (``"compiling kernels"``): one line
+        ``label: text ...`` now, instead of a figure standing still at 0 %. The periodic lines
+        resume ``every_s`` after the first progress reported once it is over."""
+        if text in self._stages:
+            return
+        self._stages.add(text)
+        self._after_stage = True
+        print(f"{self.label}: {text} ...", file=self.stream, flush=True)
 
     def __call__(self, done: float, total: float | None = None, note: str = "") -> None:
         """Report ``done`` (same unit as ``total``); ``note`` is appended (e.g. failed runs)."""
         if total is not None:
             self.total = float(total)
         now = time.perf_counter()
+        if self._after_stage:  # the stage is over: the figures count from here
+            self._after_stage = False
+            self._last_line = now
         if now - self.start < self.delay_s:
             return
         if self._tty:

@@ -47,6 +47,31 @@ def test_bad_option_values_end_with_one_error_line(argv, option, tmp_path, capsy
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("argv, words", [
+    (["run", FORCE_HOLD], ["tactile-bt run: error:", "--scene", "--out"]),
+    (["run", FORCE_HOLD, "--scene", PEN, "--out", "OUT", "--duration", "-3"], ["tactile-bt run: error:", "--duration"]),
+    (["view"], ["tactile-bt view: error:", "dir"]),
+    (["frobnicate"], ["tactile-bt: error:", "frobnicate"]),
+    (["sensor", "stream", "--rate", "fast"], ["tactile-bt sensor stream: error:", "--rate"]),
+])
+def test_argument_errors_are_one_line_without_the_usage_block(argv, words, tmp_path, capsys):
+    argv = [str(tmp_path / "out") if a == "OUT" else a for a in argv]
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "usage:" not in err, err
+    assert all(word in err for word in words), err
+    assert "--help" in err
+
+
+def test_help_still_shows_the_usage(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["run", "--help"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: tactile-bt run")
+
+
 @pytest.mark.parametrize("duration", ["1e-9", "1e7"])
 def test_a_budget_of_no_cycle_or_too_many_is_refused(duration, tmp_path, capsys):
     assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", duration, "--out", str(tmp_path / "out")]) == 2
@@ -149,6 +174,49 @@ def test_ctrl_c_keeps_every_cycle_so_far(tmp_path, capsys, monkeypatch):
     assert len(np.load(out / "log.npz")["t"]) == report["ticks"]
 
 
+@pytest.mark.parametrize("earlier", [(), ("report.json", "log.npz")])
+def test_ctrl_c_while_the_scene_loads_claims_no_outputs(earlier, tmp_path, capsys, monkeypatch):
+    """Nothing of this run exists yet: the message says so, and names what an earlier run left."""
+    import tactile_bt.sim.scene
+
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tactile_bt.sim.scene, "load_scene", interrupt)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in earlier:
+        (out / name).write_text("an earlier run")
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "5", "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "every cycle" not in err, err
+    assert err.startswith("interrupted before the mission started; nothing was written")
+    if earlier:
+        assert err.endswith(f"{out} still holds an earlier run's report.json, log.npz"), err
+    assert sorted(p.name for p in out.iterdir()) == sorted(earlier)
+    assert all((out / name).read_text() == "an earlier run" for name in earlier)
+
+
+def test_ctrl_c_in_the_mission_leaves_only_this_runs_outputs_and_names_them(tmp_path, capsys, monkeypatch):
+    import tactile_bt.progress
+
+    def interrupt(self, done, total=None, note=""):
+        if done > 0.2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(tactile_bt.progress.Progress, "__call__", interrupt)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in OUTPUT_FILES:  # as an earlier scan left them
+        (out / name).write_text("stale")
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "5", "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip()
+    written = sorted(p.name for p in out.iterdir())
+    assert written == sorted(["report.json", "log.npz", "errors.png"])  # a force hold records no contacts
+    assert err.startswith("interrupted at 0.2") and f"{out} holds this run's report.json, log.npz, errors.png" in err
+    assert json.loads((out / "report.json").read_text())["status"] == "interrupted"
+
+
 def test_progress_off_a_terminal_is_one_line_now_and_then():
     import io
 
@@ -162,6 +230,35 @@ def test_progress_off_a_terminal_is_one_line_now_and_then():
     lines = stream.getvalue().splitlines()
     assert len(lines) == 3 and lines[-1].startswith("mission time: 10.0/10.0 s (100 %)")
     assert "\r" not in stream.getvalue()
+
+
+def test_progress_says_once_that_it_compiles_instead_of_standing_at_zero():
+    import io
+    import time
+
+    from tactile_bt.progress import Progress
+
+    stream = io.StringIO()
+    progress = Progress(40.0, label="mission time", every_s=0.05, delay_s=0.0, stream=stream)
+    progress.stage("compiling kernels")
+    progress.stage("compiling kernels")
+    time.sleep(0.1)  # the compile: longer than every_s
+    progress(0.0)
+    lines = stream.getvalue().splitlines()
+    assert lines == ["mission time: compiling kernels ..."]
+    time.sleep(0.1)
+    progress(20.0)
+    assert stream.getvalue().splitlines()[1].startswith("mission time: 20.0/40.0 s (50 %)")
+
+
+def test_a_run_on_a_cold_kernel_cache_says_it_compiles(tmp_path, capsys, monkeypatch):
+    from tactile_bt.sim import warmup
+
+    monkeypatch.setattr(warmup, "compiling", lambda: True)
+    assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "0.2", "--out", str(tmp_path / "out")]) in (0, 1)
+    err = capsys.readouterr().err
+    assert err.count("mission time: compiling the simulator's kernels (once after an install) ...") == 1, err
+    assert "0.0/0.2" not in err
 
 
 def _shape(node):

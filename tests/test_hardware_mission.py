@@ -51,13 +51,14 @@ def test_a_replay_knows_the_table_the_mission_knew(tmp_path):
 
 
 def test_a_recording_with_a_bad_table_height_is_a_clear_error(tmp_path):
-    from tactile_bt.errors import RecordingError
+    from tactile_bt.errors import RecordingError, RecordingWarning
     from tactile_bt.sense.hardware.recording import Recorder
 
     path = tmp_path / "bad.tbr"
     with Recorder(path, metadata={"table_z_m": "low"}) as recorder:
         recorder.write(np.zeros((16, 16), dtype=np.uint16), np.eye(4), timestamp=0.0)
-    with pytest.raises(RecordingError, match="bad.tbr.*table_z_m"):
+    with pytest.warns(RecordingWarning, match="bad.tbr.calibration.npz is missing"), \
+            pytest.raises(RecordingError, match="bad.tbr.*table_z_m"):
         replay_mission(TREE, path)
 
 

@@ -119,3 +119,18 @@ def test_groups_the_second_process_reports_are_not_built_again(monkeypatch):
     built = _fake_build(monkeypatch, child)
     warmup.finish()
     assert len(built) == len(set(built)) < len(warmup.GROUPS)  # the second process took at least one
+
+
+def test_one_core_and_a_cold_cache_compile_in_finish_and_say_so_before(monkeypatch):
+    """No second process on one core: start() notes the cold cache (so that the progress says it
+    compiles) and finish() builds every group here, before the mission's clock starts."""
+    built = []
+    monkeypatch.setattr(warmup, "_cores", lambda: 1)
+    monkeypatch.setattr(warmup, "_all_cached", lambda: False)
+    monkeypatch.setattr(warmup, "compile_group", built.append)
+    monkeypatch.setattr(warmup, "_built", False)
+    monkeypatch.setattr(warmup, "_cold_here", False)
+    warmup.start()
+    assert warmup.compiling() and warmup._build is None
+    warmup.finish()
+    assert built == list(warmup.GROUPS) and not warmup.compiling() and warmup._built

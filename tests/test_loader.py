@@ -983,3 +983,12 @@ def test_register_a_leaf_of_your_own(node_registry):
         register_node("tap", OtherTap)
     with pytest.raises(ValueError, match=r"clashes with 'approach' of the built-in tactile_bt\.tree\.behaviours"):
         register_node("approach", OtherTap)
+
+
+def test_guided_slide_twist_takes_units_per_element():
+    """The linear part of a twist takes speeds (``30 mm/s``), the angular part angular rates."""
+    h = harness("root:\n  guided_slide: {twist: [0, 30 mm/s, 0, 0, 0, 10 deg/s]}\n")
+    h.tick()
+    assert_allclose(h.twist, [0.0, 0.03, 0.0, 0.0, 0.0, np.deg2rad(10.0)])
+    err = load_error("root:\n  guided_slide: {twist: [0, 0, 0, 30 mm/s, 0, 0]}\n")
+    assert err.line == 2 and "unit 'mm/s' does not fit a value in rad/s" in str(err)

@@ -188,3 +188,34 @@ def test_path_error_without_points(straight_cable):
     pe = path_error(np.empty((0, 2)), straight_cable)
     assert np.isnan(pe["mean"]) and np.isnan(pe["max"])
     assert pe["followed_m"] == 0.0
+
+
+def _report(**kw):
+    from tactile_bt.mission.report import FeatureMetrics, MissionReport
+
+    base = dict(tree="t.yaml", scene="s.yaml", seed=0, status="success", reason="", sim_time_s=1.0,
+                wall_time_s=0.1, real_time_factor=10.0, ticks=250, contacts=0, metrics={})
+    base["metrics"] = {name: FeatureMetrics(*m) for name, m in kw.pop("metrics", {}).items()}
+    return MissionReport(**base, **kw)
+
+
+def test_the_summary_says_a_feature_never_settled_instead_of_printing_nan():
+    nan = float("nan")
+    report = _report(metrics={"pressure_pa": (-0.2, 30.6, 0.07, 200.0, 0.5, 20.0),
+                              "orientation_rad": (nan, nan, nan, 0.0524, 0.5, 3.0)})
+    lines = report.summary_lines()
+    assert lines[0].split() == ["pressure_pa", "steady-state", "-0.2", "std", "30.6", "response", "0.07", "s"]
+    assert lines[1].split()[0] == "orientation_rad" and "never settled within ±0.0524 rad in 3.00 s" in lines[1]
+    assert not any("nan" in line for line in lines)
+
+
+@pytest.mark.parametrize("region, words", [
+    ({"normal": [0.0, 0.0, 1.0], "max_angle_deg": 10}, "of the scan region (normals within 10° of [0, 0, 1])"),
+    ("whole object", "of the whole object"),
+])
+def test_the_summary_describes_the_scan_region_in_words(region, words):
+    rec = {"method": "delaunay", "points": 100, "chamfer_m": 1e-3, "hausdorff_m": 2e-3, "coverage": 1.0,
+           "region": region}
+    line = _report(reconstruction=rec).summary_lines()[-1]
+    assert line.endswith(f"coverage 1.000 {words}"), line
+    assert "{" not in line

@@ -186,7 +186,7 @@ def test_the_mission_loop_writes_the_blackboard_values():
         ("/goal/pressure", "--blackboard /goal/pressure: expected KEY=VALUE"),
         ("/planner/twist=[0, 0.01]", "--blackboard /planner/twist: guided_slide: twist must be 6 finite numbers"),
         ("/planner/twist=[0, .nan, 0, 0, 0, 0]", "--blackboard /planner/twist: guided_slide 'guided_slide': "
-                                                 "twist[1] must be finite (got nan)"),
+                                                 "twist[1] must be finite (got nan m/s)"),
         ("/goal/cop=[0, 0, 0]", "--blackboard /goal/cop: centre: target_m must be [x, y] in metres"),
     ],
 )

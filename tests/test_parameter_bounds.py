@@ -67,7 +67,9 @@ def test_bad_force_hold_values_name_file_line_column_node_and_parameter(param, v
 @pytest.mark.parametrize(
     "node,needle",
     [
-        ("approach: {speed_mps: 0}", "approach 'approach': speed_mps must be > 0 (got 0.0 m/s)"),
+        ("approach: {speed_mps: 0}", "approach 'approach': speed_mps must be (0, 0.05] (got 0.0 m/s)"),
+        ("approach: {speed_mps: 10}",  # meant as mm/s: the twist limit would cap it
+         "approach 'approach': speed_mps must be (0, 0.05] (got 10.0 m/s); the pad moves at most 0.05 m/s"),
         ("approach: {pressure_pa: -800}", "approach 'approach': pressure_pa must be > 0"),
         ("approach: {timeout_s: .inf}", "timeout_s must be finite and > 0 (got inf s)"),
         ("approach: {max_travel_m: .nan}", "max_travel_m must be finite and > 0"),
@@ -77,7 +79,7 @@ def test_bad_force_hold_values_name_file_line_column_node_and_parameter(param, v
         ("tactile_servo: {kp: [1, 1, -1e-6, 1]}", "tactile_servo 'tactile_servo': kp[2] must not be negative"),
         ("tactile_servo: {band: [0.0005, 0.0005, 0, 0.03]}", "band[2] must be > 0 (got 0.0)"),
         ("tactile_servo: {target_pa: -1}", "target_pa must be > 0"),
-        ("guided_slide: {twist: [0, .inf, 0, 0, 0, 0]}", "twist[1] must be finite (got inf)"),
+        ("guided_slide: {twist: [0, .inf, 0, 0, 0, 0]}", "twist[1] must be finite (got inf m/s)"),
         ("guided_slide: {distance_m: -1 mm}", "distance_m must not be negative (got -0.001 m)"),
         ("guided_slide: {duration_s: .nan}", "duration_s must be finite and >= 0"),
         ("record_contacts: {region_level: 0}", "region_level must be (0, 1] (got 0.0)"),

@@ -229,3 +229,29 @@ def test_yaml_syntax_error_names_the_line(tmp_path):
 def test_physically_impossible_values_are_rejected(override):
     with pytest.raises(SceneError, match=override.split("=")[0]):
         load_scene(CABLE_SCENE, [override])
+
+
+# --------------------------------------------------------------------------------- units
+
+
+def test_scene_values_take_units_like_tree_values(tmp_path):
+    """``radius: 3 mm`` is 0.003 m, in a file and in an override: the parser of tree values."""
+    text = (SCENE.replace("    radius: 0.003", "    radius: 3 mm")
+            .replace("    stiffness: 1e5", "    stiffness: 100 N/mm"))
+    assert text != SCENE
+    s = load_scene(write(tmp_path, text))
+    assert s.cable.radius == pytest.approx(0.003)
+    assert s.objects[0].stiffness == pytest.approx(1e5)
+    s = load_scene(CABLE_SCENE, ["objects.1.radius=2.5 mm", "duration_s=1 min"])
+    assert s.cable.radius == pytest.approx(0.0025) and s.duration_s == pytest.approx(60.0)
+
+
+@pytest.mark.parametrize("value,needle", [("3 kPa", "unit 'kPa' does not fit a value in m"),
+                                          ("3 px", "unit 'px' does not fit a value in m"),
+                                          ("-3 mm", "expected a positive number up to 0.05 m, got '-3 mm'")])
+def test_a_scene_value_with_a_wrong_unit_names_file_line_and_field(tmp_path, value, needle):
+    path = write(tmp_path, SCENE.replace("    radius: 0.003", f"    radius: {value}"))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value).startswith(f"{path}:8:") and "objects.1.radius" in str(info.value)
+    assert needle in str(info.value)

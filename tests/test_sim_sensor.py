@@ -94,7 +94,7 @@ def test_lifting_the_pad_after_a_press_releases_it():
 
 def test_pressure_feature_noise_matches_the_papers_sensor_noise_level():
     """Default noise: a steady 40-tactel contact at 2 kPa shows a pressure std of ~0.04 × target
-    before smoothing (DESIGN.md, paper Sec. V)."""
+    before smoothing (docs/architecture.md, paper Sec. V)."""
     sensor = model(seed=11)
     force = np.zeros((16, 16))
     force[4:12, 6:11] = 2000.0 * PITCH**2  # 40 tactels at 2 kPa

@@ -116,7 +116,10 @@ def test_tree_parameters_and_several_scenes_in_the_grid(tmp_path):
     result = run_sweep(spec, tmp_path / "out", keep_runs=True)
     rows = _table(tmp_path / "out")
     assert len(rows) == 4 and result.errors == 0
-    assert {r["tree.force_hold.target_pa"] for r in rows} == {"1500", "2 kPa"}
+    # SI numbers in the grid's column; the text as written beside them, for the values with a unit
+    assert {(r["tree.force_hold.target_pa"], r["tree.force_hold.target_pa (as written)"]) for r in rows} == {
+        ("1500", ""), ("2000.0", "2 kPa")}
+    assert "mount.rpy_deg (as written)" not in rows[0]
     assert {r["seed"] for r in rows} == {"3"}
     assert {Path(r["scene"]).name for r in rows} == {"pen.yaml", "toy_box.yaml"}
     run = next(r for r in result.runs if dict(r.values)["tree.force_hold.target_pa"] == 1500)

@@ -51,3 +51,46 @@ def test_a_scan_mission_writes_its_surface_and_a_render_that_shows_it(tmp_path):
     assert main(["view", str(tmp_path), "--png", str(tmp_path / "no_surface.png")]) == 0
     without = _orange_share(mpimg.imread(tmp_path / "no_surface.png")[..., :3])
     assert with_surface > 0.005 and with_surface > 3 * without
+
+
+def test_view_without_a_display_says_so_and_points_to_png(tmp_path, capsys, monkeypatch):
+    run_mission(ROOT / "trees" / "force_hold.yaml", ROOT / "sim" / "pen.yaml", duration=0.2, out=tmp_path)
+    monkeypatch.setattr("sys.platform", "linux")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no display" in err and f"--png {tmp_path / 'render.png'}" in err, err
+
+
+def test_view_of_a_missing_directory_names_it(tmp_path, capsys):
+    missing = tmp_path / "nothing"
+    assert main(["view", str(missing), "--png", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {missing}: no such file or directory"), err
+    assert f"is {tmp_path} the output" not in err
+
+
+def test_the_render_keys_the_contacts_by_their_colour_bar_and_has_a_scale(tmp_path, monkeypatch):
+    """No legend swatch of one colour for contacts coloured by a map; a ruler in mm for scale."""
+    import pyvista as pv
+
+    from tactile_bt.mission.view import scale_length_m
+
+    seen = {}
+    screenshot = pv.Plotter.screenshot
+
+    def grab(self, *args, **kwargs):  # what the picture holds, before the plotter is closed
+        legend = self.legend
+        seen["legend"] = [legend.GetEntryString(i) for i in range(legend.GetNumberOfEntries())]
+        seen["colour bars"] = list(self.scalar_bars.keys())
+        seen["rulers"] = [a.GetTitle() for a in self.renderer.actors.values() if a.GetClassName() == "vtkAxisActor2D"]
+        return screenshot(self, *args, **kwargs)
+
+    monkeypatch.setattr(pv.Plotter, "screenshot", grab)
+    run_mission(ROOT / "trees" / "cable_follow.yaml", ROOT / "sim" / "cable.yaml", duration=1.5, out=tmp_path)
+    assert main(["view", str(tmp_path), "--png", str(tmp_path / "render.png")]) == 0
+    assert seen["legend"] and not any("contact" in label for label in seen["legend"]), seen
+    assert seen["colour bars"] == ["contacts: pressure (Pa)"]
+    assert len(seen["rulers"]) == 1 and seen["rulers"][0].endswith(" mm")
+    assert scale_length_m(0.7) == 0.2 and scale_length_m(0.05) == 0.01 and scale_length_m(0.001) == 0.002

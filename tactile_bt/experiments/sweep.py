@@ -41,6 +41,7 @@ from typing import Any, Callable
 
 from tactile_bt import shipped
 from tactile_bt.errors import OutputPathError, TactileBtError, YamlError
+from tactile_bt.units import to_si
 from tactile_bt.yamlutil import Located, load_located, plain
 
 __all__ = ["SweepSpec", "Run", "SweepResult", "load_spec", "plan", "execute", "error_row", "flatten_report",
@@ -425,8 +426,25 @@ def flatten_report(report: dict) -> dict:
     return out
 
 
+#: Suffix of the column that keeps a grid value as the spec wrote it, beside its SI number.
+AS_WRITTEN = " (as written)"
+
+
+def si_value(key: str, value: Any) -> Any:
+    """A grid value as its SI number (``"2.5 kPa"`` → 2500.0; degrees for the scene's ``*_deg``
+    keys), for the table and the plots; :func:`tactile_bt.units.to_si`."""
+    return to_si(value, degrees=key.endswith("_deg"))
+
+
+def written_columns(spec: SweepSpec) -> list[str]:
+    """The ``KEY (as written)`` columns: one per grid key that has a value written with a unit."""
+    return [f"{key}{AS_WRITTEN}" for key, values in spec.grid if any(si_value(key, v) != v for v in values)]
+
+
 def _lead(run: Run) -> dict:
-    return {"run_id": run.run_id, "scene": run.scene_label, **dict(run.values), "seed": run.seed}
+    values = {key: si_value(key, v) for key, v in run.values}
+    written = {f"{key}{AS_WRITTEN}": v for key, v in run.values if values[key] != v}
+    return {"run_id": run.run_id, "scene": run.scene_label, **values, **written, "seed": run.seed}
 
 
 def execute(run: Run) -> dict:
@@ -603,7 +621,7 @@ def run_sweep(spec: SweepSpec | str | Path, out: str | Path, executor=None, keep
     out = Path(out)
     _check_out(out)
     runs = plan(spec, out, keep_runs, plugins)
-    table = ResultsTable(out / RESULTS, [*LEAD, *spec.grid_keys])
+    table = ResultsTable(out / RESULTS, [*LEAD, *spec.grid_keys, *written_columns(spec)])
     existing = table.load()
     done = {k for k, row in existing.items() if not (retry_errors and row.get("status") == "error")}
     todo = [r for r in runs if r.run_id not in done]
@@ -683,7 +701,7 @@ def _label(value: Any) -> str:
 def _x_key(spec: SweepSpec) -> str | None:
     """The grid key along the plots' x axis: the numeric one with the most values."""
     numeric = [(len(v), k) for k, v in spec.grid
-               if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)]
+               if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (si_value(k, u) for u in v))]
     if numeric:
         return max(numeric, key=lambda p: p[0])[1]
     return spec.grid_keys[0] if spec.grid else None
@@ -703,12 +721,12 @@ def plot_summary(spec: SweepSpec, runs: list[Run], rows: list[dict[str, str]], p
 
     by_id = {r.run_id: r for r in runs}
     x_key = _x_key(spec)
-    x_values = list(dict(spec.grid)[x_key]) if x_key else [label for label, _ in spec.scenes]
+    x_values = [si_value(x_key, v) for v in dict(spec.grid)[x_key]] if x_key else [label for label, _ in spec.scenes]
     numeric_x = x_key is not None and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in x_values)
     log_x = numeric_x and min(x_values) > 0 and max(x_values) / min(x_values) >= 100
 
     def position(run: Run) -> float:
-        x = dict(run.values)[x_key] if x_key else run.scene_label
+        x = si_value(x_key, dict(run.values)[x_key]) if x_key else run.scene_label
         return float(x) if numeric_x else float(x_values.index(x))
 
     def series(run: Run) -> str:

@@ -1,7 +1,7 @@
 """One control cycle without the robot, shared by missions, replays and the bench.
 
 sense → calibrate → extract → smooth → blackboard → tree tick → summed sensor-frame twist
-(DESIGN.md); the caller applies the twist through ``Ad(T_gs)`` to its mount, or to nothing.
+(docs/architecture.md); the caller applies the twist through ``Ad(T_gs)`` to its mount, or to nothing.
 
 Layer: mission.
 """
@@ -28,7 +28,7 @@ __all__ = ["ControlLoop", "tick", "root_outcome", "failure_reason", "success_rea
 
 
 class ControlLoop:
-    """One control cycle of DESIGN.md, without the robot: raw frame → sensor-frame twist.
+    """One control cycle of docs/architecture.md, without the robot: raw frame → sensor-frame twist.
 
     calibrate → extract → smooth → blackboard → tree tick → summed twist. Used by the
     simulated mission, by the hardware loop and by the benchmark, so all three time the same

@@ -17,7 +17,7 @@ from tactile_bt.contacts.ply import write_ply
 from tactile_bt.arguments import check_output_dir
 from tactile_bt import defaults
 
-__all__ = ["OUTPUT_FILES", "prepare_output_dir", "plot_errors", "write_outputs"]
+__all__ = ["OUTPUT_FILES", "prepare_output_dir", "present_outputs", "plot_errors", "write_outputs"]
 
 #: Every file a mission may write into its output directory.
 OUTPUT_FILES = ("report.json", "log.npz", "errors.png", "tree.png", "contacts.ply", "surface.ply", "render.png")
@@ -39,6 +39,11 @@ def prepare_output_dir(out: str | Path) -> Path:
     return out
 
 
+def present_outputs(out: str | Path) -> tuple[str, ...]:
+    """The names of the :data:`OUTPUT_FILES` that are in ``out`` now, in their order."""
+    return tuple(name for name in OUTPUT_FILES if (Path(out) / name).is_file())
+
+
 def _jsonable(value):
     if isinstance(value, dict):
         return {k: _jsonable(v) for k, v in value.items()}
@@ -52,11 +57,47 @@ def _jsonable(value):
     return value
 
 
+#: Share of the cycles (after its first value) in which a feature was undefined above which its
+#: panel says so: the trace alone would look like an empty panel.
+_UNDEFINED_NOTE_SHARE = 0.5
+
+
+def _feature_panel(ax, t: np.ndarray, errors: list, measured: list, name: str, unit: str,
+                   why_undefined: str = "") -> None:
+    """One panel of :func:`plot_errors`: the errors of a feature's components (``(values,
+    colour, label, line style)``) when a leaf controlled it, else its measured values; a note
+    when the feature was undefined (NaN) in most cycles, or never measured."""
+    controlled = any(np.isfinite(values).any() for values, *_ in errors)
+    shown = errors if controlled else measured
+    for values, colour, label, style in shown:
+        ax.plot(t, values, color=colour, label=label, **{"lw": 1.0, **style})
+    ax.set_ylabel(f"{name} error ({unit})" if controlled else f"{name} ({unit})")
+    defined = np.zeros(len(t), bool)
+    for values, *_ in shown:
+        defined |= np.isfinite(values)
+    note = ""
+    if not defined.any():
+        note = f"{name}: never measured{why_undefined}"
+    else:
+        if not controlled:
+            ax.set_title(f"{name}: measured (no leaf controlled it)", fontsize=8, loc="left")
+        undefined = 1.0 - float(np.mean(defined[int(np.argmax(defined)):]))
+        if undefined > _UNDEFINED_NOTE_SHARE:
+            note = f"{name} undefined in {undefined:.0%} of the cycles after its first value{why_undefined}"
+    if note:
+        ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", color="0.3", fontsize=9,
+                bbox={"facecolor": "white", "edgecolor": "0.8", "alpha": 0.9})
+    if any(label for _, _, label, _ in shown):
+        ax.legend(loc="upper right", fontsize=8)
+
+
 def plot_errors(result, path: str | Path | None = None):
     """Feature errors against mission time, like the paper's Figs. 8–10 and 12b.
 
     Three panels: pressure error (in units of the target, the paper's p), COP error (px) and
-    orientation error (deg). The dashed line marks the end of the approach.
+    orientation error (deg). A feature no leaf controlled shows its measured values instead (a
+    scan's orientation), or says it was never measured. The dashed line marks the end of the
+    approach.
     """
     import matplotlib
 
@@ -74,15 +115,14 @@ def plot_errors(result, path: str | Path | None = None):
     ax.axhspan(-0.04, 0.04, color="C2", alpha=0.15, label="sensor noise level ±0.04")
     ax.set_ylabel("pressure error\n(units of target 2 kPa)")
     ax.legend(loc="upper right", fontsize=8)
-    ax = axes[1]
-    ax.plot(t, log["error_cop_x_px"], color="C0", lw=1.0, label="x")
-    ax.plot(t, log["error_cop_y_px"], color="C1", lw=1.0, label="y")
-    ax.set_ylabel("COP error (px)")
-    ax.legend(loc="upper right", fontsize=8)
-    ax = axes[2]
-    ax.plot(t, np.rad2deg(log["error_orientation_rad"]), color="C3", lw=1.0)
-    ax.set_ylabel("orientation error (deg)")
-    ax.set_xlabel("mission time (s)")
+    # x wide and underneath, y thin and dashed on top: where they coincide both stay visible
+    cop = [("x", "C0", dict(lw=2.4)), ("y", "C1", dict(lw=1.0, ls="--"))]
+    _feature_panel(axes[1], t, [(log[f"error_cop_{c}_px"], colour, c, style) for c, colour, style in cop],
+                   [(log[f"cop_{c}_px"], colour, c, style) for c, colour, style in cop], "COP", "px")
+    _feature_panel(axes[2], t, [(np.rad2deg(log["error_orientation_rad"]), "C3", None, {})],
+                   [(np.rad2deg(log["orientation_rad"]), "C3", None, {})], "orientation", "deg",
+                   why_undefined=" (no line contact: the imprint has no dominant axis)")
+    axes[2].set_xlabel("mission time (s)")
     started = np.isfinite(log["error_pressure_pa"]) | np.isfinite(log["error_cop_x_px"])
     if started.any():
         t0 = t[int(np.argmax(started))]

@@ -2,8 +2,8 @@
 
 :class:`MissionReport` is the one description of a run's outcome: the command line prints it, the
 output writer saves it (:meth:`MissionReport.to_dict` gives the JSON), the view and the studies
-read it back (:meth:`MissionReport.load`). ``MissionResult.report`` is its dict, as DESIGN.md
-promises users.
+read it back (:meth:`MissionReport.load`). ``MissionResult.report`` is its dict, as
+docs/architecture.md promises users.
 
 Layer: mission.
 """
@@ -16,10 +16,16 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from tactile_bt.sim.region import describe_region
+
 __all__ = ["FeatureMetrics", "MissionReport", "OK_STATUSES"]
 
 #: Statuses of a run that did what it was asked (the CLI's exit code 0).
 OK_STATUSES = ("success", "completed")
+
+
+#: The unit of a metric from its name's suffix (``pressure_pa`` → Pa).
+_METRIC_UNITS = {"pa": "Pa", "px": "px", "rad": "rad"}
 
 
 def _number(value: Any) -> float:
@@ -152,18 +158,26 @@ class MissionReport:
     def load(cls, path: str | Path) -> "MissionReport":
         """Read ``report.json`` (or the one in the output directory ``path``)."""
         path = Path(path)
+        if not path.exists():
+            raise FileNotFoundError(f"{path}: no such file or directory (expected the output directory of "
+                                    "'tactile-bt run' or its report.json)")
         if path.is_dir():
             path = path / "report.json"
-        if not path.exists():
-            raise FileNotFoundError(f"{path} not found: is {path.parent} the output of 'tactile-bt run'?")
+            if not path.exists():
+                raise FileNotFoundError(f"{path} not found: is {path.parent} the output of 'tactile-bt run'?")
         return cls.from_dict(json.loads(path.read_text()))
 
     def summary_lines(self) -> list[str]:
         """The lines the command line prints after a run."""
         lines = []
         for name, m in self.metrics.items():
-            lines.append(f"  {name:16s} steady-state {m.steady_state_error:+.4g}  std {m.std:.4g}  "
-                         f"response {m.response_time_s:.2f} s")
+            if math.isfinite(m.response_time_s):
+                lines.append(f"  {name:16s} steady-state {m.steady_state_error:+.4g}  std {m.std:.4g}  "
+                             f"response {m.response_time_s:.2f} s")
+            else:  # controlled, but its error never stayed in the band: no figures to give
+                unit = _METRIC_UNITS.get(name.rsplit("_", 1)[-1], "")
+                lines.append(f"  {name:16s} never settled within ±{m.band:.3g} {unit} in {m.window_s:.2f} s "
+                             "of control")
         if self.path_error_m and math.isfinite(self.path_error_m.get("mean", float("nan"))):
             p = self.path_error_m
             lines.append(f"  path error       mean {p['mean'] * 1e3:.2f} mm  max {p['max'] * 1e3:.2f} mm  "
@@ -172,7 +186,7 @@ class MissionReport:
         if rec and rec.get("chamfer_m") is not None and math.isfinite(rec["chamfer_m"]):
             lines.append(f"  reconstruction   {rec['method']}, {rec['points']} contacts: chamfer "
                          f"{rec['chamfer_m'] * 1e3:.2f} mm, Hausdorff {rec['hausdorff_m'] * 1e3:.2f} mm, "
-                         f"coverage {rec['coverage']:.3f} of {rec['region']}")
+                         f"coverage {rec['coverage']:.3f} of {describe_region(rec.get('region'))}")
         sup = self.supervisor
         if sup and sup.get("interventions"):
             n = sup["interventions"]

@@ -22,9 +22,11 @@ import py_trees
 
 from tactile_bt import defaults
 from tactile_bt.control.spatial import body_to_spatial
-from tactile_bt.errors import MissionLengthError
+from tactile_bt.arguments import check_output_dir
+from tactile_bt.errors import MissionInterrupted, MissionLengthError
 from tactile_bt.mission.log import MissionLog
 from tactile_bt.mission.loop import ControlLoop, root_outcome
+from tactile_bt.mission.outputs import prepare_output_dir, present_outputs
 from tactile_bt.mission.result import MissionResult, finish_mission
 from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
 from tactile_bt.mission.watch import MissionWatcher, finish_watchers, start_watchers
@@ -130,23 +132,28 @@ def run_mission(
         (:class:`~tactile_bt.mission.recording_rerun.RerunRecorder`).
     """
     kernel_build.start()  # on a cold kernel cache: a second process starts compiling kernels
-    tree, scene = _resolve(tree, scene, overrides, params, blackboard)
-    scan = _scan_settings(tree, scene, reconstruct, scan_region)
-    duration = float(scene.duration_s if duration is None else duration)
-    seed = int(scene.seed if seed is None else seed)
-    rng = np.random.default_rng(seed)
-    world = scene.build_world(rng)
-    dt = 1.0 / scene.rate_hz
-    n_cycles = int(round(duration * scene.rate_hz))
-    _check_cycles(n_cycles, duration, scene.rate_hz)
-    if out is not None:  # before the mission: a path that cannot be written loses nothing
-        from tactile_bt.mission.outputs import prepare_output_dir
+    try:  # Ctrl-C while loading and compiling: out still holds what it held
+        tree, scene = _resolve(tree, scene, overrides, params, blackboard)
+        scan = _scan_settings(tree, scene, reconstruct, scan_region)
+        duration = float(scene.duration_s if duration is None else duration)
+        seed = int(scene.seed if seed is None else seed)
+        rng = np.random.default_rng(seed)
+        world = scene.build_world(rng)
+        dt = 1.0 / scene.rate_hz
+        n_cycles = int(round(duration * scene.rate_hz))
+        _check_cycles(n_cycles, duration, scene.rate_hz)
+        if out is not None:  # before the mission: a path that cannot be written loses nothing
+            check_output_dir(out)
 
-        prepare_output_dir(out)
-
-    # ... and the rest here, before the mission's clock starts; waiting on the second process,
-    # import what the outputs need
-    kernel_build.finish(idle=None if out is None else _import_output_modules)
+        # ... and the rest here, before the mission's clock starts; waiting on the second process,
+        # import what the outputs need
+        if kernel_build.compiling() and hasattr(progress, "stage"):  # not "0 %" for a quarter of a minute
+            progress.stage("compiling the simulator's kernels (once after an install)")
+        kernel_build.finish(idle=None if out is None else _import_output_modules)
+    except KeyboardInterrupt:
+        if out is None:
+            raise
+        raise MissionInterrupted(out, earlier=present_outputs(out)) from None
     pad = scene.sensor.geometry
     table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
@@ -177,6 +184,8 @@ def run_mission(
                                                 metadata={"scene": scene.file, "seed": seed, "rate_hz": scene.rate_hz,
                                                           "pitch_m": pad.pitch,
                                                           "table_z_m": None if math.isnan(table_z_m) else table_z_m}))
+    if out is not None:  # the run starts writing: an earlier run's outputs go
+        prepare_output_dir(out)
     watchers = start_watchers(watchers, loop, log, scene)
     wall_start = time.perf_counter()
     try:
@@ -214,6 +223,8 @@ def run_mission(
         if out is not None:
             result.save(out)
         finish_watchers(watchers, result)
+        if out is not None and isinstance(exc, KeyboardInterrupt):
+            raise MissionInterrupted(out, written=present_outputs(out), sim_time_s=log.n * dt) from None
         raise
     finally:
         supervisor.stop()  # the mount's last command is a zero twist, however the mission ends

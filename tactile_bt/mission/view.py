@@ -12,13 +12,15 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 
+from tactile_bt.errors import CommandLineError
 from tactile_bt.mission.report import MissionReport
 
-__all__ = ["render_mission", "MAX_POINTS_SHOWN"]
+__all__ = ["render_mission", "has_display", "scale_length_m", "MAX_POINTS_SHOWN"]
 
 #: Largest number of contact points drawn (a scan records tens of thousands).
 MAX_POINTS_SHOWN = 6000
@@ -27,6 +29,14 @@ MAX_POINTS_SHOWN = 6000
 #: tenth of a millimetre in) does not veil them. Only the picture; the files are untouched.
 SURFACE_LIFT_M = 0.001
 POINT_LIFT_M = 0.002
+
+
+def has_display() -> bool:
+    """Whether a window can open: always on macOS and Windows; on Linux and other Unixes, when
+    an X or Wayland display is set (``DISPLAY``, ``WAYLAND_DISPLAY``)."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def _lifted(vertices: np.ndarray, contacts: np.ndarray, lift: float) -> np.ndarray:
@@ -92,6 +102,27 @@ def _scan_title(report: MissionReport) -> str:
     return "\n" + "\n".join(parts)
 
 
+#: Lengths a scale bar may have (m): the longest that is at most a third of the scene.
+SCALE_LENGTHS_M = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
+
+
+def scale_length_m(span_m: float) -> float:
+    """The length of the scale bar for a scene ``span_m`` wide (m): a round length of at most
+    a third of it (the shortest one for a tiny scene)."""
+    fitting = [length for length in SCALE_LENGTHS_M if length <= span_m / 3.0]
+    return fitting[-1] if fitting else SCALE_LENGTHS_M[0]
+
+
+def _add_scale_bar(plotter, lo: np.ndarray, hi: np.ndarray) -> None:
+    """A ruler along world x at the front lower corner of the scene's box ``lo``–``hi`` (m),
+    labelled in mm."""
+    length = scale_length_m(float(hi[0] - lo[0]))
+    start = np.array([lo[0], lo[1], lo[2]], dtype=float)
+    plotter.add_ruler(start, start + (length, 0.0, 0.0), title=f"{length * 1e3:g} mm", scale=1e3,
+                      number_labels=2, label_format="%.0f", label_color="black", tick_color="black",
+                      font_size_factor=0.8)
+
+
 def render_mission(out_dir: str | Path, png: str | Path | None = None, window_size=(1200, 900),
                    color_by: str | None = None) -> Path | None:
     """Draw the mission in ``out_dir`` (its report.json, log.npz, contacts.ply and, for a scan,
@@ -102,13 +133,19 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
     out_dir : path
         Output directory of ``tactile-bt run``.
     png : path, optional
-        Render off screen into this PNG; without it a window opens.
+        Render off screen into this PNG; without it a window opens (on Linux, a
+        :class:`~tactile_bt.errors.CommandLineError` when there is no display to open it on).
     window_size : (int, int)
         Picture size in pixels.
     color_by : {"time", "pressure"}, optional
         Colour of the contact points: mission time (s) or pressure (Pa). Default: time for a
         scan (the report has ``reconstruction``), pressure otherwise.
     """
+    out = Path(out_dir)
+    report = MissionReport.load(out)
+    if png is None and not has_display():
+        raise CommandLineError(f"no display to open a window on (DISPLAY is not set): render {out} "
+                               f"into a picture with --png FILE, e.g. --png {out / 'render.png'}")
     if png is not None and not os.environ.get("DISPLAY"):
         # Off screen without an X server: go straight to EGL instead of trying X first.
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -117,8 +154,6 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
     from tactile_bt.contacts.ply import read_ply_points
     from tactile_bt.sim.scene import load_scene
 
-    out = Path(out_dir)
-    report = MissionReport.load(out)
     scan = report.reconstruction is not None
     if color_by is None:
         color_by = "time" if scan else "pressure"
@@ -177,15 +212,19 @@ def render_mission(out_dir: str | Path, png: str | Path | None = None, window_si
         fmt = "%.0f" if np.ptp(values) >= 10 else "%.1f"
         cloud[name] = values.astype(float)
         size = 3 if scan else (6 if len(points) < 2000 else 4)
+        # No legend entry: a swatch of one colour would not match the colour map; the colour
+        # bar, titled "contacts: ...", is their key.
         plotter.add_mesh(cloud, scalars=name, cmap="viridis", point_size=size,
-                         render_points_as_spheres=True, label="contacts",
-                         scalar_bar_args={"position_x": 0.45, "width": 0.45, "fmt": fmt, "color": "black"})
+                         render_points_as_spheres=True,
+                         scalar_bar_args={"position_x": 0.45, "width": 0.45, "fmt": fmt, "color": "black",
+                                          "title": f"contacts: {name}"})
     title = f"{Path(report.tree).stem} on {Path(report.scene).stem}: {report.status}"
     if scan:
         title += _scan_title(report)
     p = report.path_error_m
     if p and p.get("mean") is not None and math.isfinite(p["mean"]):
         title += f"\npath error mean {p['mean'] * 1e3:.2f} mm, max {p['max'] * 1e3:.2f} mm, {report.contacts} contacts"
+    _add_scale_bar(plotter, everything.min(axis=0), everything.max(axis=0))
     plotter.add_text(title, font_size=11, color="black")
     plotter.add_legend(bcolor="white", face="rectangle", size=(0.16, 0.12), loc="lower left")
     centre = (everything.min(axis=0) + everything.max(axis=0)) / 2

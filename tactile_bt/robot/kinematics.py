@@ -6,7 +6,7 @@ Frames
   identity by default, so that ``g`` *is* the base frame unless a scene moves the robot).
 * ``0..7`` -- the classic (distal, "standard") Denavit-Hartenberg frames; joint ``i`` (1-based)
   turns about ``z_{i-1}``.  Frame ``7`` is the flange ``e``.
-* ``s``  -- the sensor frame O_s of DESIGN.md (origin at the pad centre, ``+z_s`` the sensing
+* ``s``  -- the sensor frame O_s of docs/architecture.md (origin at the pad centre, ``+z_s`` the sensing
   normal pointing at the object), ``T_es`` (``mount``) from the flange.
 
 ``fk(q)`` returns ``T_gs = T_g0 . T_07(q) . T_es``.

@@ -4,7 +4,7 @@ A :class:`PadGeometry` is built from a scene's ``sensor:`` section (or a real mo
 configuration) and passed to everything that needs the pad's extent: calibration, feature
 extraction, the leaves' ``px`` units and logged errors, the contact recorder and the metrics.
 
-Conventions (DESIGN.md): the sensor frame's origin is the pad centre, x along increasing column
+Conventions (docs/architecture.md): the sensor frame's origin is the pad centre, x along increasing column
 index, y along increasing row index; tactel ``[x, y] = [column, row]`` centres sit at integers,
 so the centre of a 16×16 pad is at ``(7.5, 7.5)`` px.
 

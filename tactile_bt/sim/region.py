@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["REGION_KEYS", "check_region"]
+__all__ = ["REGION_KEYS", "check_region", "describe_region"]
 
 #: The keys of a scan region.
 REGION_KEYS = frozenset({"object", "normal", "max_angle_deg", "box"})
@@ -50,3 +50,24 @@ def check_region(region) -> dict:
             raise ValueError(f"scan_region.box must be [[xmin, ymin, zmin], [xmax, ymax, zmax]], got {region['box']!r}")
         out["box"] = b.tolist()
     return out
+
+
+def _vector(v) -> str:
+    return "[" + ", ".join(f"{float(x):.3g}" for x in v) + "]"
+
+
+def describe_region(region) -> str:
+    """A scan region in words, for summaries: ``"the scan region (normals within 10° of [0, 0, 1])"``,
+    ``"the whole object"`` for no region (``None``, an empty mapping or the text ``"whole object"``
+    that report.json stores for it)."""
+    if region is None or isinstance(region, str):
+        return "the whole object" if not region or region == "whole object" else str(region)
+    region = check_region(region)
+    parts = []
+    if "normal" in region or "max_angle_deg" in region:
+        parts.append(f"normals within {float(region.get('max_angle_deg', 90.0)):g}° of "
+                     f"{_vector(region.get('normal', (0.0, 0.0, 1.0)))}")
+    if "box" in region:
+        lo, hi = region["box"]
+        parts.append(f"inside the box {_vector(lo)}–{_vector(hi)} m")
+    return f"the scan region ({', '.join(parts)})" if parts else "the whole object"

@@ -29,12 +29,13 @@ from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.robot.mounts import MountSpec
 from tactile_bt.errors import MountError
-from tactile_bt.sim.schema import (COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, NUMBER, POSITIVE, STR, ListOf,
+from tactile_bt.sim.schema import (ANGLE_DEG, COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, POSITIVE, STR, ListOf,
                                    Range)
 from tactile_bt.sim.region import check_region
 from tactile_bt.sim.world import World
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
-from tactile_bt.errors import SceneError, YamlError
+from tactile_bt.errors import ParameterTypeError, SceneError, YamlError
+from tactile_bt.units import parse_quantity
 
 __all__ = ["Scene", "load_scene", "apply_overrides", "check_seed"]
 
@@ -101,7 +102,7 @@ SENSOR = {
 MOUNT = {
     "type": STR,
     "position": ListOf(3, COORD),
-    "rpy_deg": ListOf(3, NUMBER),
+    "rpy_deg": ListOf(3, ANGLE_DEG),
     "base": ListOf(3, COORD),
     "stiffness": Range(0.0, 1e8, lo_open=True, unit="N m/rad"),
     "damping": Range(0.0, 1e6, unit="N m s/rad"),
@@ -121,7 +122,7 @@ SUPERVISOR = {
     "workspace_max_m": ListOf(3, COORD),
 }
 #: Fields every object has: its type, pose in the world and contact properties.
-_COMMON = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, NUMBER),
+_COMMON = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, ANGLE_DEG),
            "stiffness": Range(0.0, lo_open=True, unit="N/m"), "friction": NONNEGATIVE}
 OBJECTS = {
     "table": {**_COMMON, "height": COORD},
@@ -130,7 +131,7 @@ OBJECTS = {
         "radius": Range(0.0, 0.05, lo_open=True, unit="m"),
         "table_height": COORD,
         "start": ListOf(2, COORD),
-        "heading_deg": NUMBER,
+        "heading_deg": ANGLE_DEG,
         "path": LIST,
         "points": LIST,
     },
@@ -143,9 +144,9 @@ OBJECTS = {
 REQUIRED = {"box": ("size",), "sphere": ("radius",), "cylinder": ("radius", "length"), "mesh": ("path",)}
 #: A cable's path pieces.
 STRAIGHT = LENGTH
-ARC = {"radius": LENGTH, "angle_deg": NUMBER}
+ARC = {"radius": LENGTH, "angle_deg": ANGLE_DEG}
 EVENT = {"at_s": Range(0.0, unit="s"), "object": INT, "translate": ListOf(3, COORD),
-         "rotate_deg": ListOf(3, NUMBER)}
+         "rotate_deg": ListOf(3, ANGLE_DEG)}
 
 
 def _check(value: Located, kind: Any, field_name: str) -> Any:
@@ -153,10 +154,12 @@ def _check(value: Located, kind: Any, field_name: str) -> Any:
     :class:`SceneError` naming the field, the file and the line."""
     v = value.value
     if isinstance(kind, Range):
+        if isinstance(v, str) and not kind.integer:
+            v = _quantity(value, kind, field_name)
         if isinstance(v, float) and not np.isfinite(v):
             raise value.error(f"{field_name}: expected a finite number, got {v!r}")
         if not kind.accepts(v):
-            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
+            raise value.error(f"{field_name}: expected {kind}, got {plain(value.value)!r}")
         return int(v) if kind.integer else float(v)
     if isinstance(kind, ListOf):
         if not isinstance(v, list) or len(v) != kind.n:
@@ -175,6 +178,15 @@ def _check(value: Located, kind: Any, field_name: str) -> Any:
             raise value.error(f"{field_name}: expected a list")
         return v
     raise AssertionError(kind)
+
+
+def _quantity(value: Located, kind: Range, field_name: str) -> float:
+    """A number written with a unit (``radius: 3 mm``), in the field's SI unit; the same parser
+    as the tree's parameters (:func:`tactile_bt.units.parse_quantity`)."""
+    try:
+        return parse_quantity(value.value, kind.unit or None)
+    except ParameterTypeError as exc:
+        raise value.error(f"{field_name}: {exc}") from None
 
 
 def _fields(section: Located, schema: dict, where_: str) -> dict:

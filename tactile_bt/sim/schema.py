@@ -1,8 +1,8 @@
 """Kinds of value in the scene schema (:mod:`tactile_bt.sim.scene` checks them).
 
 A kind is a string for non-numeric values (``"string"``, ``"mapping"``, ``"list"``), a
-:class:`Range` for numbers and integers (finite, within bounds), or a :class:`ListOf` for
-fixed-length lists. ``str(kind)`` is the phrase used in error messages
+:class:`Range` for numbers and integers (finite, within bounds, in the range's SI unit; a number
+may be written with a unit: ``3 mm``), or a :class:`ListOf` for fixed-length lists. ``str(kind)`` is the phrase used in error messages
 (``expected an integer from 1 to 128``) and in ``sim/README.md``.
 
 Layer: sim.
@@ -15,7 +15,7 @@ import math
 from typing import Any
 
 __all__ = ["Range", "ListOf", "STR", "MAPPING", "LIST", "NUMBER", "POSITIVE", "NONNEGATIVE", "INT",
-           "COORD", "LENGTH", "MAX_COORD_M"]
+           "COORD", "LENGTH", "ANGLE_DEG", "MAX_COORD_M"]
 
 STR = "string"
 MAPPING = "mapping"
@@ -35,6 +35,8 @@ class Range:
     hi: float | None = None
     integer: bool = False
     lo_open: bool = False
+    #: The SI unit of the value (``"m"``, ``"s"``, ...): a plain number is in it, and a string
+    #: with a unit of the same kind (``"3 mm"``) is converted to it (:mod:`tactile_bt.units`).
     unit: str = ""
 
     def accepts(self, x: Any) -> bool:
@@ -92,5 +94,7 @@ INT = Range(integer=True)
 #: metres of the origin: far beyond any reach, and far from overflows.
 MAX_COORD_M = 100.0
 COORD = Range(-MAX_COORD_M, MAX_COORD_M, unit="m")
+#: Angles in degrees (fields named ``*_deg``); ``"0.5 rad"`` is converted.
+ANGLE_DEG = Range(unit="deg")
 #: Sizes of objects (radius, length, edges): positive, at most ``MAX_COORD_M``.
 LENGTH = Range(0.0, MAX_COORD_M, lo_open=True, unit="m")

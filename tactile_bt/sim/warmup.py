@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["start", "finish", "compile_group", "is_cached", "GROUPS"]
+__all__ = ["start", "finish", "compiling", "compile_group", "is_cached", "GROUPS"]
 
 #: The kernel groups, in the order they are taken from the queue (largest first).
 GROUPS = ("arm", "pad", "perception")
@@ -44,6 +44,8 @@ _build: _Build | None = None
 _start_lock = threading.Lock()
 #: The kernels are built (this process checked the cache, or built them): nothing to start.
 _built = False
+#: One core and a cold cache: :func:`finish` compiles every group in this process.
+_cold_here = False
 
 
 def _signatures(group: str) -> list:
@@ -182,26 +184,43 @@ def _cores() -> int:
 
 
 def start() -> None:
-    """On a cold cache, start the second process on the first group.  Nothing happens on one
-    core, when a build is already running, or once this process knows the kernels are built.
+    """On a cold cache, start the second process on the first group.  Nothing is started on one
+    core (a cold cache is noted, for :func:`finish` to compile here), when a build is already
+    running, or once this process knows the kernels are built.
     The process starts before the cache is checked, so that its start-up overlaps the check; on
     a warm cache it is told there is nothing to build, and ends.  The check looks at the last
     function of each group, which :func:`compile_group` builds last."""
-    global _build, _built
+    global _build, _built, _cold_here
     with _start_lock:
-        if _built or _build is not None or _cores() < 2:
+        if _built or _build is not None:
+            return
+        if _cores() < 2:  # no second process: finish() compiles here on a cold cache
+            _cold_here = not _all_cached()
+            _built = not _cold_here
             return
         try:
             build = _Build()
         except OSError:  # no second process: this one compiles everything, as without start()
             return
-        if all(is_cached(*_signatures(group)[-1]) for group in GROUPS):
+        if _all_cached():
             build.stop_giving()
             _built = True
             return
         build.give()
         _build = build
         atexit.register(_stop)
+
+
+def _all_cached() -> bool:
+    """Whether the disk cache holds every group (judged by its last function)."""
+    return all(is_cached(*_signatures(group)[-1]) for group in GROUPS)
+
+
+def compiling() -> bool:
+    """Whether :func:`finish` will compile kernels: :func:`start` found the cache cold (and
+    started a second process, on two cores or more). For a progress display that would
+    otherwise stand still at 0 % while they compile."""
+    return _build is not None or _cold_here
 
 
 def _stop() -> None:
@@ -225,12 +244,16 @@ def finish(idle: Callable[[], object] | None = None) -> None:
     """Compile groups here, taking them from the queue the second process (if :func:`start`
     started one) takes from too, until none is left; then wait for the second process's,
     calling ``idle`` first if it is still at work (say, to import what the run needs later),
-    and build here any group it did not report.  Without a started build: nothing (the first
-    call compiles)."""
-    global _build, _built
+    and build here any group it did not report.  On one core with a cold cache, compile every
+    group here.  Without a started build: nothing (the first call compiles)."""
+    global _build, _built, _cold_here
     with _start_lock:
         build, _build = _build, None
     if build is None:
+        if _cold_here:  # one core, cold cache: the groups here, before the mission's clock starts
+            for group in GROUPS:
+                compile_group(group)
+            _cold_here, _built = False, True
         return
     deadline = time.monotonic() + TIMEOUT_S
     try:

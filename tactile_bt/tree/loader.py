@@ -75,6 +75,7 @@ from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_paramete
                                         normalise_key, parameters_of, uses_pad_units)
 from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, load_entry_points, node_types
 from tactile_bt.tree.subtrees import PARAM_REF, Subtree, SubtreeExpansion, parse_subtrees
+from tactile_bt.units import element_unit
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
 
 __all__ = ["load_tree", "LoadedTree", "NodeParameters", "format_parameters", "build_node"]
@@ -97,7 +98,7 @@ def _check_type(value: Located, annotation: Any, field: str, unit: str | None = 
     if isinstance(v, list) and describe_type(annotation) == "list[float]":
         for i, element in enumerate(v):  # element by element, so that the error points at the bad one
             try:
-                convert_parameter(element.value, float, unit, bound, name, pad)
+                convert_parameter(element.value, float, element_unit(unit, i), bound, name, pad)
             except ParameterTypeError as exc:
                 problem = exc.detail or f"expected a list of numbers, got {plain(v)!r}"
                 raise located_error(element, f"{field}: {_hinted(problem, element.value)}", field) from None

@@ -37,9 +37,11 @@ from typing import Any
 import py_trees
 from py_trees.common import Access
 
+from tactile_bt import units
 from tactile_bt.errors import BlackboardReferenceError, ParameterTypeError, ParameterValueError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.blackboard import current_pad
+from tactile_bt.units import ACCEPTED_UNITS, PAD_UNITS, element_unit, uses_pad_units
 
 __all__ = [
     "UNITS",
@@ -70,26 +72,9 @@ __all__ = [
     "blackboard_references",
 ]
 
-#: SI unit → the units a YAML value may carry instead, with their factor to the SI unit. Lengths
-#: also take the :data:`PAD_UNITS`, whose factor is the pad's pitch (:func:`accepted_units`).
-ACCEPTED_UNITS: dict[str, dict[str, float]] = {
-    "Pa": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6},
-    "m/s": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3},
-    "rad/s": {"rad/s": 1.0, "deg/s": math.pi / 180.0},
-    "rad": {"rad": 1.0, "deg": math.pi / 180.0, "°": math.pi / 180.0},
-    "m": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6},
-    "s": {"s": 1.0, "ms": 1e-3, "min": 60.0},
-    "N": {"N": 1.0, "mN": 1e-3},
-}
-#: Length units counted in tactels of the pad: one is the pad's pitch in m.
-PAD_UNITS: tuple[str, ...] = ("px", "tactel", "tactels")
 #: Name suffix → SI unit: a parameter named ``*_pa`` is in Pa, ``*_mps`` in m/s, and so on.
 #: Classes name the units of other parameters in ``parameter_units`` (e.g. ``band``).
 UNITS: dict[str, str] = {"_pa": "Pa", "_mps": "m/s", "_rps": "rad/s", "_rad": "rad", "_m": "m", "_s": "s", "_n": "N"}
-#: A number with an optional unit: ``"1500"``, ``"1500Pa"``, ``"1.5 kPa"``, ``"2e3 Pa"``. The unit may not
-#: start with a digit, so the digits of a plain number are never split into number and "unit".
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)(?:\s*([^\s\d.+\-].*?))?\s*$")
-_LEADING_NUMBER = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)")
 
 
 # ------------------------------------------------------------------------------ bounds
@@ -116,6 +101,8 @@ class Bound:
     high_open: bool = False
     allow_inf: bool = False
     also: tuple = ()
+    #: Appended to the message of a value out of bounds: why the bound is there, what to write.
+    note: str = ""
 
     def __str__(self) -> str:
         """The range as the reference tables show it: ``> 0``, ``>= 0``, ``[0, 1)``, ``finite``."""
@@ -167,9 +154,10 @@ NON_NEGATIVE = Bound(0.0)
 POSITIVE_OR_INF = Bound(0.0, low_open=True, allow_inf=True)
 
 
-def between(low: float, high: float, low_open: bool = False, high_open: bool = False) -> Bound:
-    """The finite numbers from ``low`` to ``high`` (``between(0, 1, high_open=True)`` is [0, 1))."""
-    return Bound(float(low), float(high), low_open, high_open)
+def between(low: float, high: float, low_open: bool = False, high_open: bool = False, note: str = "") -> Bound:
+    """The finite numbers from ``low`` to ``high`` (``between(0, 1, high_open=True)`` is [0, 1));
+    ``note`` is added to the message of a value outside."""
+    return Bound(float(low), float(high), low_open, high_open, note=note)
 
 
 def bounds_of(cls) -> dict[str, Bound]:
@@ -186,6 +174,10 @@ def _with_unit(x: Any, unit: str | None) -> str:
     return f"{text} {unit}" if unit else text
 
 
+def _noted(bound: Bound) -> str:
+    return f"; {bound.note}" if bound.note else ""
+
+
 def check_bound(name: str | None, value: Any, bound: Bound | None, unit: str | None = None) -> None:
     """Raise :class:`ParameterValueError` when ``value`` (a number, or a list of numbers checked
     element by element) is outside ``bound``; values that are not numbers are left to the type
@@ -195,7 +187,7 @@ def check_bound(name: str | None, value: Any, bound: Bound | None, unit: str | N
     if _is_number(value):
         problem = bound.problem(float(value))
         if problem:
-            raise ParameterValueError(name, f"{problem} (got {_with_unit(value, unit)})")
+            raise ParameterValueError(name, f"{problem} (got {_with_unit(value, unit)}){_noted(bound)}")
         return
     if isinstance(value, typing.Iterable) and not isinstance(value, dict):
         try:
@@ -206,7 +198,8 @@ def check_bound(name: str | None, value: Any, bound: Bound | None, unit: str | N
             if _is_number(v) and not isinstance(v, bool):
                 problem = bound.problem(float(v))
                 if problem:
-                    raise ParameterValueError(name, f"{problem} (got {_with_unit(v, unit)})", index=i)
+                    raise ParameterValueError(name, f"{problem} (got {_with_unit(v, element_unit(unit, i))}){_noted(bound)}",
+                                              index=i)
 
 
 def _is_float_like(annotation: Any) -> bool:
@@ -304,54 +297,18 @@ def unit_of(name: str, cls: type | None = None) -> str | None:
 
 def accepted_units(unit: str | None, pad: PadGeometry | None = None) -> dict[str, float] | None:
     """The units a value in SI unit ``unit`` may carry, with their factors to it (None when it
-    takes a plain number only): :data:`ACCEPTED_UNITS`, plus for lengths the :data:`PAD_UNITS`
-    with the pitch of ``pad`` (default ``PadGeometry()``, 5 mm)."""
-    table = ACCEPTED_UNITS.get(unit or "")
-    if table is None or unit != "m":
-        return table
-    pitch = (PadGeometry() if pad is None else pad).pitch
-    return {**table, **dict.fromkeys(PAD_UNITS, pitch)}
-
-
-def uses_pad_units(value: Any) -> bool:
-    """Whether ``value`` (a quantity string such as ``"0.5 px"``, or a list of them) gives a
-    length in tactels, whose value depends on the pad's pitch."""
-    if isinstance(value, str):
-        match = _QUANTITY.match(value)
-        return bool(match) and match.group(2) in PAD_UNITS
-    if isinstance(value, (list, tuple)):
-        return any(uses_pad_units(v) for v in value)
-    return False
+    takes a plain number only): :data:`~tactile_bt.units.ACCEPTED_UNITS`, plus for lengths the
+    :data:`~tactile_bt.units.PAD_UNITS` with the pitch of ``pad`` (default ``PadGeometry()``, 5 mm)."""
+    return units.accepted_units(unit, (PadGeometry() if pad is None else pad).pitch)
 
 
 def parse_quantity(text: str, unit: str | None, pad: PadGeometry | None = None) -> float:
     """``"2 kPa"`` → 2000.0 for a parameter in Pa, ``"1500"`` → 1500.0 (a plain number is in the
     parameter's SI unit); ``"2 px"`` is two pitches of ``pad`` (default ``PadGeometry()``).
-    Raises :class:`ParameterTypeError` on a unit of the wrong kind, a malformed quantity, or a
-    unit on a parameter that takes a plain number."""
-    match = _QUANTITY.match(text)
-    accepted = accepted_units(unit, pad)
-    if match and match.group(2) is None:
-        return float(match.group(1))
-    if accepted is None:
-        note = ""
-        if _LEADING_NUMBER.match(text):
-            note = f" (a plain number{f' in {unit}' if unit else ''}: this parameter takes no unit)"
-        raise ParameterTypeError("a number", text, f"expected a number, got {text!r}{note}")
-    if not match:
-        raise ParameterTypeError(f"a number in {unit}", text,
-                                 f"expected a number in {unit} (or a number with a unit: "
-                                 f"{', '.join(accepted)}), got {text!r}")
-    number, given = float(match.group(1)), match.group(2)
-    if given not in accepted:
-        from difflib import get_close_matches
-
-        close = get_close_matches(given, list(accepted), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ParameterTypeError(f"a number in {unit}", text,
-                                 f"unit {given!r} does not fit a value in {unit}{hint}; "
-                                 f"valid units: {', '.join(accepted)}")
-    return number * accepted[given]
+    :func:`tactile_bt.units.parse_quantity` with the pad's pitch; raises
+    :class:`ParameterTypeError` on a unit of the wrong kind, a malformed quantity, or a unit on
+    a parameter that takes a plain number."""
+    return units.parse_quantity(text, unit, (PadGeometry() if pad is None else pad).pitch)
 
 
 def _is_number(v: Any) -> bool:
@@ -431,9 +388,9 @@ def _convert(value: Any, annotation: Any, unit: str | None, pad: PadGeometry | N
         if isinstance(value, (str, bytes)) or not isinstance(value, typing.Iterable):
             raise ParameterTypeError("a list of numbers", value)
         out = []
-        for v in value:
+        for i, v in enumerate(value):
             if isinstance(v, str):
-                out.append(parse_quantity(v, unit, pad))
+                out.append(parse_quantity(v, element_unit(unit, i), pad))
             elif _is_number(v):
                 out.append(float(v))
             else:

@@ -23,7 +23,8 @@ import numpy as np
 
 from tactile_bt.errors import CommandLineError
 from tactile_bt.defaults import COLS, MAX_SENSOR_RATE_HZ, ROWS
-from tactile_bt.arguments import check_output, nonnegative_int, one_line_warnings, positive_float, positive_int
+from tactile_bt.arguments import (OneLineParser, check_output, nonnegative_int, one_line_warnings, positive_float,
+                                  positive_int)
 from tactile_bt.sense.hardware.framing import EMULATED_SENSOR_TYPE
 from tactile_bt.sense.hardware.options import device_rate, fault_spec, module_name, sensor_type
 from tactile_bt.errors import OutputPathError
@@ -351,7 +352,7 @@ def add_sensor_subcommands(subparsers: argparse._SubParsersAction) -> argparse.A
 
 def main(argv: list[str] | None = None) -> int:
     """Stand-alone entry point: ``python -m tactile_bt.sense.hardware.cli sensor ...``."""
-    parser = argparse.ArgumentParser(prog="tactile-bt")
+    parser = OneLineParser(prog="tactile-bt")
     sub = parser.add_subparsers(dest="command", metavar="{sensor}")
     sub.required = True
     add_sensor_subcommands(sub)

@@ -14,8 +14,9 @@ from py_trees.common import Access, Status
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import read
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
-from tactile_bt.errors import BlackboardReferenceError
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, check_bound, node_label, normalise_key
+from tactile_bt.errors import BlackboardReferenceError, ParameterValueError
+from tactile_bt.units import TWIST
 
 
 __all__ = ["Approach", "GuidedSlide"]
@@ -31,7 +32,7 @@ class Approach(TactileBehaviour):
     Parameters
     ----------
     speed_mps : float
-        Approach speed along +z_s, towards the object (m/s, > 0).
+        Approach speed along +z_s, towards the object (m/s; at most the cycle's linear twist limit).
     pressure_pa : float
         Smoothed contact pressure that counts as contact established (Pa).
     timeout_s : float
@@ -41,8 +42,12 @@ class Approach(TactileBehaviour):
     """
 
     uses = frozenset({"pressure"})
-    parameter_bounds = {"speed_mps": POSITIVE, "pressure_pa": POSITIVE, "timeout_s": POSITIVE,
-                        "max_travel_m": POSITIVE}
+    #: A faster approach would be capped by the cycle's twist limit and its ``travelled`` would
+    #: count distance the pad never moved: it is refused instead.
+    parameter_bounds = {"speed_mps": between(0.0, defaults.TWIST_LINEAR_LIMIT_MPS, low_open=True,
+                                             note=f"the pad moves at most {defaults.TWIST_LINEAR_LIMIT_MPS:g} m/s "
+                                                  "(write e.g. '10 mm/s' for millimetres per second)"),
+                        "pressure_pa": POSITIVE, "timeout_s": POSITIVE, "max_travel_m": POSITIVE}
 
     def __init__(
         self,
@@ -61,8 +66,11 @@ class Approach(TactileBehaviour):
         self.travelled = 0.0
 
     def set_parameter(self, name: str, value) -> None:
-        if name == "speed_mps" and not value > 0:
-            raise ValueError(f"{self.name}: speed_mps must be positive, got {value}")
+        if name == "speed_mps":
+            try:
+                check_bound(name, value, self.parameter_bounds[name], "m/s")
+            except ParameterValueError as exc:
+                raise ParameterValueError(name, exc.detail, node=node_label(type(self), self.name)) from None
         if name in ("timeout_s", "max_travel_m") and not value > 0:
             raise ValueError(f"{self.name}: {name} must be positive, got {value}")
         super().set_parameter(name, value if name == "name" else float(value))
@@ -106,7 +114,8 @@ class GuidedSlide(TactileBehaviour):
     Parameters
     ----------
     twist : list of float
-        ``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame.
+        ``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame; elements may carry units
+        (``[0, 30 mm/s, 0, 0, 0, 10 deg/s]``).
     twist_key : str
         Blackboard key to read the twist from on every tick instead ("" = use ``twist``).
     require_contact : bool
@@ -120,6 +129,7 @@ class GuidedSlide(TactileBehaviour):
     fixed_parameters = frozenset({"name", "twist_key"})
     #: ``twist`` is signed (its sign is the direction) and only has to be finite.
     parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE}
+    parameter_units = {"twist": TWIST}
     #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
     key_parameters = {"twist_key": "twist"}
 
