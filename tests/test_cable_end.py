@@ -59,6 +59,23 @@ def test_signs_of_the_end_end_the_follow_with_a_reason(frame, reason):
     assert read("/cable/on_line") is False
 
 
+def test_the_end_is_seen_with_a_real_sensors_jittered_frame_times():
+    """Frames of a live sensor come 4 ms apart give or take a millisecond: the verdict still
+    needs dwell_s of judging, not a window whose oldest frame is exactly dwell_s old."""
+    rng = np.random.default_rng(3)
+    h = LeafHarness(CableEnd(dwell_s=0.1), dt=DT)
+    patch = contact_frame(force_n=6.0, length_px=0.0, width_px=6.0)
+    status, elapsed = Status.RUNNING, 0.0
+    for k in range(200):
+        h.dt = DT * rng.uniform(0.75, 1.25)
+        status = h.tick(frame=cable_frame() if k < 50 else patch)
+        elapsed += h.dt if k >= 50 else 0.0
+        if status != Status.RUNNING:
+            break
+    assert status == Status.SUCCESS and "no line" in h.behaviour.feedback_message
+    assert elapsed < 0.2  # dwell_s of patch frames and a few more, not never
+
+
 def test_one_odd_frame_decides_nothing():
     h = LeafHarness(CableEnd(dwell_s=0.1), dt=DT)
     run(h, cable_frame(), 0.2)

@@ -152,6 +152,7 @@ class CableEnd(TactileBehaviour):
         self._window: deque[tuple[float, str]] = deque()
         self._gone = 0  # verdicts in the window that say the line is gone
         self._lost_since: float | None = None
+        self._judged_since: float | None = None  # the first verdict of the current window
         self.reach_px = math.nan
         self._along_of = (None, math.nan, None)  # (pad, direction, tactels along it): judge's cache
 
@@ -159,6 +160,7 @@ class CableEnd(TactileBehaviour):
         self._window.clear()
         self._gone = 0
         self._lost_since = None
+        self._judged_since = None
         self.reach_px = math.nan
         self.feedback_message = ""
         write(self.on_line_key, False)
@@ -195,6 +197,7 @@ class CableEnd(TactileBehaviour):
             write(self.on_line_key, False)
             self._window.clear()
             self._gone = 0
+            self._judged_since = None
             if self._lost_since is None:
                 self._lost_since = now
             if now - self._lost_since >= self.lost_s:
@@ -206,13 +209,17 @@ class CableEnd(TactileBehaviour):
         verdict = self.judge(f)
         write(self.on_line_key, not verdict)
         window = self._window
+        if self._judged_since is None:
+            self._judged_since = now
         window.append((now, verdict))
         if verdict:
             self._gone += 1
         while window[0][0] < now - self.dwell_s - 1e-9:
             if window.popleft()[1]:
                 self._gone -= 1
-        if not verdict or now - window[0][0] < self.dwell_s - 1e-9 or 2 * self._gone <= len(window):
+        # A verdict needs dwell_s of judging behind it: measured from the first verdict, not from the
+        # oldest one in the window (with a real sensor's frame times, that one is always younger).
+        if not verdict or now - self._judged_since < self.dwell_s - 1e-9 or 2 * self._gone <= len(window):
             if verdict:
                 self.feedback_message = verdict
             else:
