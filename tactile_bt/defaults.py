@@ -109,3 +109,8 @@ SUPERVISOR_MAX_STALE_S: float = 1.0
 #: Rate (Hz of mission time) at which ``--rerun`` logs the force image, the features and the
 #: pad's pose; node status changes are logged at every tick.
 RERUN_RATE_HZ: float = 50.0
+
+# --- Live missions ------------------------------------------------------------------------------
+#: A live mission's sensor falls silent after this many control periods without a new frame
+#: (the supervisor's ``sensor_silence_s`` where the robot file sets none).
+LIVE_SENSOR_SILENCE_PERIODS: int = 4

@@ -19,6 +19,7 @@ Layer: mission.
 from __future__ import annotations
 
 import math
+import sys
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -168,7 +169,8 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
         notes.append(f"{setup.file}: no sensor.calibration: using the nominal tactel characteristic")
         calibration = TactelCalibration.nominal(pad=pad)
     write_table_height(setup.table_z_m)
-    limits = SupervisorLimits.for_tree(tree, setup.supervisor)
+    limits = SupervisorLimits.for_tree(tree, {"sensor_silence_s": defaults.LIVE_SENSOR_SILENCE_PERIODS * dt,
+                                              **setup.supervisor})
     n_cycles = MAX_CYCLES if duration is None else int(round(duration * setup.rate_hz))
     log = MissionLog(n_cycles)
     log.track_nodes(tree.root)
@@ -178,6 +180,8 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     stack = contextlib.ExitStack()
     status, reason, t = "completed", "", 0.0
     supervisor = robot_obj = None
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(5e-4)  # the sensor's reader and ROS get their turn within a frame
     wall_start = time.perf_counter()
     try:
         link = stack.enter_context(SerialTactileSensor(sensor, rows=pad.rows, cols=pad.cols,
@@ -247,6 +251,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
         status, reason = "error", f"{type(exc).__name__}: {exc}"
         raise
     finally:
+        sys.setswitchinterval(switch)
         try:
             if robot_obj is not None:
                 robot_obj.stop()  # the robot's last command: a zero twist, however the mission ends

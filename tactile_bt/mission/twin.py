@@ -16,7 +16,8 @@ Before it prints the port on the first line of its standard output, the twin wri
 ``DIR/calibration.npz`` (the simulated pad's calibration). When it ends (SIGINT, SIGTERM, or its
 duration), it writes ``DIR/twin.npz``: every twist it received (``command_time_s`` (N,),
 ``command_twist`` (N, 6), as the messages carried them) and the pad's true pose over time
-(``pose_time_s`` (M,), ``pose`` (M, 4, 4)), on the twin's clock (s from its start).
+(``pose_time_s`` (M,), ``pose`` (M, 4, 4)), on the twin's clock (s from its start), and the time
+each cycle's work took (``cycle_work_s`` (M,), s).
 
 Layer: mission.
 """
@@ -24,6 +25,7 @@ Layer: mission.
 from __future__ import annotations
 
 import math
+import multiprocessing
 import threading
 import time
 from dataclasses import dataclass
@@ -34,7 +36,8 @@ import numpy as np
 
 from tactile_bt.control.spatial import point_to_spatial
 from tactile_bt.mission.robot_file import write_robot_file
-from tactile_bt.robot.ros2 import SERVO_TWIST_TOPIC, RosNode, fill_pose_message, twist_from_message
+from tactile_bt.mission.twin_devices import SharedTwinState, serve_devices
+from tactile_bt.robot.ros2 import SERVO_TWIST_TOPIC
 
 __all__ = ["TWIN_POSE_TOPIC", "TWIN_JOINT_TOPIC", "TwinResult", "serve_twin"]
 
@@ -43,6 +46,8 @@ TWIN_JOINT_TOPIC = "/joint_states"
 BASE_FRAME = "world"
 #: No twist for this long (s): the twin's arm holds still.
 HOLD_AFTER_S = 0.1
+#: How long the devices process may take to start or to stop (s).
+STARTUP_TIMEOUT_S = 30.0
 
 
 @dataclass
@@ -54,50 +59,6 @@ class TwinResult:
     commands: int
     late_cycles: int
     wall_time_s: float
-
-
-class _Commands:
-    """The twists received, as the messages carried them, with their arrival time (s)."""
-
-    def __init__(self, t0: float) -> None:
-        self._lock = threading.Lock()
-        self._t0 = t0
-        self.times: list[float] = []
-        self.twists: list[np.ndarray] = []
-
-    def receive(self, msg) -> None:
-        twist = twist_from_message(msg.twist)
-        with self._lock:
-            self.times.append(time.monotonic() - self._t0)
-            self.twists.append(twist)
-
-    def latest(self) -> tuple[float, np.ndarray] | None:
-        with self._lock:
-            return (self.times[-1], self.twists[-1]) if self.times else None
-
-
-class _Frames:
-    """The emulator's frame source: the newest simulated frame; ``stall()`` stops the stream (a
-    sensor that falls silent), without closing its port."""
-
-    def __init__(self, first: np.ndarray) -> None:
-        self._raw = first
-        self._stalled = threading.Event()
-        self._closing = threading.Event()
-
-    def update(self, raw: np.ndarray) -> None:
-        self._raw = raw
-
-    def stall(self) -> None:
-        self._stalled.set()
-
-    def close(self) -> None:
-        self._closing.set()
-
-    def __call__(self) -> np.ndarray:
-        while self._stalled.is_set() and not self._closing.is_set():
-            time.sleep(0.01)
-        return self._raw
 
 
 def serve_twin(scene, out: str | Path, *, seed: int | None = None, duration: float | None = None,
@@ -126,10 +87,7 @@ def serve_twin(scene, out: str | Path, *, seed: int | None = None, duration: flo
     network : bool
         Discover ROS 2 peers on the network; default: this host only.
     """
-    from geometry_msgs.msg import PoseStamped, TwistStamped
-
     from tactile_bt.mission.run import scene_table_height
-    from tactile_bt.sense.hardware.emulator import DeviceEmulator
     from tactile_bt.sim.scene import Scene, load_scene
 
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
@@ -142,37 +100,36 @@ def serve_twin(scene, out: str | Path, *, seed: int | None = None, duration: flo
     stop = stop or threading.Event()
     world.calibration.save(out / "calibration.npz")
 
-    ros = RosNode("tactile_bt_twin", network)
-    frames = _Frames(world.sense())
-    emulator = None
+    joint_state = getattr(world.mount, "joint_state", lambda: None)()
+    n_joints = 0 if joint_state is None else len(joint_state.positions_rad)
+    state = SharedTwinState(pad.rows, pad.cols, n_joints)
+    state.put_pose(world.pose, None if joint_state is None else joint_state.positions_rad)
+    state.put_frame(world.sense())
+    context = multiprocessing.get_context("spawn")
+    conn, child_conn = context.Pipe()
+    devices = context.Process(target=serve_devices, name="tactile-bt twin devices", daemon=True, args=(
+        state.name, pad.rows, pad.cols, n_joints, scene.rate_hz, module, network, TWIN_POSE_TOPIC, TWIN_JOINT_TOPIC,
+        SERVO_TWIST_TOPIC, BASE_FRAME, child_conn))
+    times = np.zeros(0)
+    twists = np.zeros((0, 6))
+    pose_times, poses, work = [], [], []
+    late = k = 0
+    t0 = time.monotonic()
     try:
-        t0 = time.monotonic()
-        commands = _Commands(t0)
-        node = ros.node
-        node.create_subscription(TwistStamped, SERVO_TWIST_TOPIC, commands.receive, 10)
-        pose_pub = node.create_publisher(PoseStamped, TWIN_POSE_TOPIC, 10)
-        joint_state = getattr(world.mount, "joint_state", lambda: None)()
-        joint_pub = None
-        if joint_state is not None:
-            from sensor_msgs.msg import JointState as JointStateMessage
-
-            joint_pub = node.create_publisher(JointStateMessage, TWIN_JOINT_TOPIC, 10)
-        emulator = DeviceEmulator(frames, rate_hz=scene.rate_hz, rows=pad.rows, cols=pad.cols, module=module,
-                                  keep_log=False)
+        devices.start()
+        if not conn.poll(STARTUP_TIMEOUT_S):
+            raise RuntimeError(f"the twin's devices did not start within {STARTUP_TIMEOUT_S:g} s")
+        port = conn.recv()
         write_robot_file(
             out / "robot.yaml", rate_hz=scene.rate_hz, pose_topic=TWIN_POSE_TOPIC, base_frame=BASE_FRAME,
-            joint_state_topic=TWIN_JOINT_TOPIC if joint_pub is not None else None,
+            joint_state_topic=TWIN_JOINT_TOPIC if n_joints else None,
             joint_limits=None if joint_state is None else (joint_state.lower_rad, joint_state.upper_rad),
             module=module, calibration="calibration.npz", table_z_m=scene_table_height(scene),
-            comment=f"The digital twin of {scene.file}: tactile-bt live TREE --sensor {emulator.port} "
+            comment=f"The digital twin of {scene.file}: tactile-bt live TREE --sensor {port} "
                     f"--robot {out / 'robot.yaml'} --out DIR")
-        announce(emulator.port)
-
-        pose_times, poses = [], []
-        late = k = 0
-        pose_msg, joint_msg = PoseStamped(), None
-        pose_msg.header.frame_id = BASE_FRAME
-        while not stop.is_set():
+        announce(port)
+        t0 = time.monotonic()
+        while not stop.is_set() and devices.is_alive():
             due = t0 + k * dt
             wait = due - time.monotonic()
             if wait > 0:
@@ -181,53 +138,42 @@ def serve_twin(scene, out: str | Path, *, seed: int | None = None, duration: flo
                     break
             elif wait < -dt:
                 late += 1
-            now = time.monotonic() - t0
-            if duration is not None and now >= duration:
+            now = time.monotonic()
+            if duration is not None and now - t0 >= duration:
                 break
-            t = k * dt
-            world.update(t)
+            began = now
+            world.update(k * dt)
             T = world.pose
-            latest = commands.latest()
-            if latest is None or now - latest[0] > HOLD_AFTER_S:
+            twist, received, count = state.get_twist()
+            if count == 0 or now - received > HOLD_AFTER_S:  # no twist for 100 ms: hold still
                 twist_g = np.zeros(6)
             else:
-                twist_g = point_to_spatial(latest[1], T[:3, 3])  # the pad origin's velocity -> spatial twist
-            pose_times.append(now)
+                twist_g = point_to_spatial(twist, T[:3, 3])  # the pad origin's velocity -> spatial twist
+            pose_times.append(now - t0)
             poses.append(T.copy())
-            pose_msg.header.stamp = node.get_clock().now().to_msg()
-            fill_pose_message(pose_msg.pose, T)
-            pose_pub.publish(pose_msg)
-            if joint_pub is not None:
-                joint_msg = _joint_message(world.mount.joint_state(), pose_msg.header.stamp, joint_msg)
-                joint_pub.publish(joint_msg)
-            if stall_after_s is not None and now >= stall_after_s:
-                frames.stall()
-            frames.update(world.sense())
+            state.put_pose(T, None if not n_joints else world.mount.joint_state().positions_rad)
+            if stall_after_s is not None and now - t0 >= stall_after_s:
+                state.flags[0] = 1
+            state.put_frame(world.sense())
             world.move(twist_g, dt)
+            work.append(time.monotonic() - began)
             k += 1
         wall = time.monotonic() - t0
     finally:
-        frames.close()
-        if emulator is not None:
-            emulator.close()
-        ros.close()
-    times, twists = commands.times, commands.twists
-    np.savez(out / "twin.npz", command_time_s=np.asarray(times, dtype=float),
-             command_twist=np.asarray(twists, dtype=float).reshape(-1, 6),
+        try:
+            conn.send("stop")
+            if conn.poll(STARTUP_TIMEOUT_S):
+                times, twists = conn.recv()
+        except (BrokenPipeError, EOFError, OSError):
+            pass
+        devices.join(timeout=STARTUP_TIMEOUT_S)
+        if devices.is_alive():
+            devices.kill()
+        state.close(unlink=True)
+    np.savez(out / "twin.npz", command_time_s=times - t0, command_twist=twists,
              pose_time_s=np.asarray(pose_times, dtype=float), pose=np.asarray(poses, dtype=float).reshape(-1, 4, 4),
-             rate_hz=scene.rate_hz, hold_after_s=HOLD_AFTER_S)
+             cycle_work_s=np.asarray(work, dtype=float), rate_hz=scene.rate_hz, hold_after_s=HOLD_AFTER_S)
     return TwinResult(out, k, len(times), late, wall)
-
-
-def _joint_message(state, stamp, msg=None):
-    from sensor_msgs.msg import JointState as JointStateMessage
-
-    if msg is None:
-        msg = JointStateMessage()
-        msg.name = [f"joint_{i + 1}" for i in range(len(state.positions_rad))]
-    msg.header.stamp = stamp
-    msg.position = [float(q) for q in state.positions_rad]
-    return msg
 
 
 def twin_summary(result: TwinResult) -> str:
