@@ -82,3 +82,9 @@ METRIC_BANDS = {
 METRIC_DWELL_S: float = 0.5
 #: Length of the evaluation window after a controller starts (s): the paper's "until 20 s".
 METRIC_WINDOW_S: float = 20.0
+
+#: Cell size (m) of the signed-distance grid through which the pad model evaluates a shape that
+#: has no compiled form of its own (:mod:`tactile_bt.sim.sdf_grid`): the meshes' default.
+SHAPE_GRID_RESOLUTION_M: float = 1.0e-3
+#: Largest such grid (points, 8 bytes each); a larger shape gets coarser cells.
+SHAPE_GRID_MAX_POINTS: int = 4_000_000

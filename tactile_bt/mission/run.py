@@ -210,10 +210,9 @@ def _write_setup(scene) -> float:
     """The robot's known set-up on the blackboard, for the tree: the height of the scene's
     table (``/setup/table_z_m``, m, world z; NaN when it has none). Never the object.
     Returns the height written."""
-    from tactile_bt.sim.objects import Table
     from tactile_bt.tree.behaviours.table import write_table_height
 
-    table = next((o for o in scene.objects if isinstance(o, Table)), None)
+    table = scene.table
     height = math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2])
     write_table_height(height)
     return height
