@@ -17,10 +17,11 @@ name scenes give it (the model is dm_control's suite registry)::
         def surface_mesh(self): ...
 
 What the framework reads of a shape is the :class:`Shape` protocol; :class:`SimObject` gives
-defaults for all but the signed distance and the bounds. A new shape is one module in
-``tactile_bt/sim/shapes/`` (every module of that package is imported on the first look-up) or in
-any module imported before the scene is loaded (``--plugin``); ``tests/test_shape_conformance.py``
-checks every registered shape.
+defaults for all but the signed distance and the bounds. A new shape is one module: in
+``tactile_bt/sim/shapes/`` (every module of that package is imported on the first look-up), in an
+installed package that names it in the entry-point group ``tactile_bt.shapes`` (loaded on the
+first look-up too), or in any module imported before the scene is loaded.
+``tests/test_shape_conformance.py`` checks every registered shape.
 
 Layer: sim.
 """
@@ -28,6 +29,7 @@ Layer: sim.
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
 import pkgutil
 from dataclasses import dataclass
 from typing import Any, Callable, ClassVar, Mapping, Protocol
@@ -37,7 +39,7 @@ import numpy as np
 from tactile_bt.yamlutil import Located, YamlError
 
 __all__ = ["Shape", "ObjectSource", "ShapeValueError", "register_shape", "shape_class", "shape_names",
-           "registered_shapes"]
+           "registered_shapes", "ENTRY_POINT_GROUP"]
 
 _SHAPES: dict[str, type] = {}
 _loaded = False
@@ -150,9 +152,14 @@ def register_shape(name: str) -> Callable[[type], type]:
     return register
 
 
+#: Entry-point group through which installed packages add shapes (each entry names a module or
+#: an object whose import registers them).
+ENTRY_POINT_GROUP = "tactile_bt.shapes"
+
+
 def _load_builtin() -> None:
-    """Import the shapes the package ships: the table and the cable, meshes, and every module of
-    :mod:`tactile_bt.sim.shapes`."""
+    """Import the shapes the package ships (the table and the cable, meshes, every module of
+    :mod:`tactile_bt.sim.shapes`) and those installed packages add (:data:`ENTRY_POINT_GROUP`)."""
     global _loaded
     if _loaded:
         return
@@ -162,6 +169,12 @@ def _load_builtin() -> None:
     package = importlib.import_module("tactile_bt.sim.shapes")
     for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
         importlib.import_module(f"{package.__name__}.{info.name}")
+    for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            entry.load()
+        except Exception as exc:  # an installed package's import can fail in any way
+            raise ImportError(f"the shape plugin {entry.name!r} ({entry.value}, entry point group "
+                              f"{ENTRY_POINT_GROUP}) cannot be loaded: {exc}") from exc
 
 
 def registered_shapes() -> dict[str, type]:
