@@ -37,7 +37,8 @@ def scene_text(kind: str, fields: dict) -> str:
     """A scene with one object of ``kind``: one key per line, the object's own keys from line 7."""
     lines = ["mount: {type: cartesian, position: [0.0, 0.0, 2.0]}", "objects:", f"  - type: {kind}",
              f"    position: {POSITION}", f"    rpy_deg: {RPY_DEG}", "    stiffness: 1.0e5"]
-    lines += [f"    {key}: {value!r}" if isinstance(value, str) else f"    {key}: {value}" for key, value in fields.items()]
+    lines += [f"    {key}: {value!r}" if isinstance(value, str) else f"    {key}: {value}"
+              for key, value in fields.items()]
     return "\n".join(lines).replace("'", '"') + "\n"
 
 
@@ -169,10 +170,9 @@ def test_the_shape_draws_in_the_view_where_it_is(examples, kind):
     assert len(drawn) == 1, f"a {kind} draws nothing"
     mesh = drawn[0][1]
     assert mesh.n_points > 0
-    b = obj.bounds()
-    bounded = np.isfinite(b)
-    box = np.array(mesh.bounds).reshape(3, 2).T  # (xmin, xmax, ...) -> [min, max]
-    assert np.all(box[0][bounded[0]] >= b[0][bounded[0]] - 1e-3) and np.all(box[1][bounded[1]] <= b[1][bounded[1]] + 1e-3)
+    lo, hi = obj.bounds()  # infinite where the object is unbounded (a table)
+    drawn_lo, drawn_hi = np.array(mesh.bounds).reshape(3, 2).T  # (xmin, xmax, ...) -> min, max
+    assert np.all(drawn_lo >= lo - 1e-3) and np.all(drawn_hi <= hi + 1e-3)
 
 
 # ------------------------------------------------------------------------------ the registry
@@ -200,7 +200,7 @@ def plugin_registry(monkeypatch):
     monkeypatch.setattr(registry, "_SHAPES", registry.registered_shapes())
 
 
-def test_a_shape_registered_by_a_plugin_loads_and_touches_the_pad_without_a_kernel_of_its_own(plugin_registry, tmp_path):
+def test_a_plugin_shape_loads_and_touches_the_pad_without_a_kernel_of_its_own(plugin_registry, tmp_path):
     from tactile_bt.sim.shapes import Sphere
 
     register_shape("bead")(_Bead)

@@ -24,7 +24,8 @@ R, r = 0.06, 0.025  # the shipped ring's major and minor radius (m)
 
 def ring(**kwargs) -> Torus:
     """The shipped ring lying flat on a table at z = 0, turned 30° about its axis."""
-    return Torus(major_radius=R, minor_radius=r, stiffness=1e5, pose=object_pose([0.01, -0.02, r], [0, 0, 30]), **kwargs)
+    return Torus(major_radius=R, minor_radius=r, stiffness=1e5, pose=object_pose([0.01, -0.02, r], [0, 0, 30]),
+                 **kwargs)
 
 
 def test_the_signed_distance_is_the_distance_to_the_tube():

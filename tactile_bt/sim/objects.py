@@ -307,7 +307,8 @@ class Cable(SimObject):
         "path": LIST,
         "points": LIST,
     }
-    example = {"radius": 0.003, "start": [-0.05, 0.0], "path": [{"straight": 0.05}, {"arc": {"radius": 0.05, "angle_deg": 90}}]}
+    example = {"radius": 0.003, "start": [-0.05, 0.0],
+               "path": [{"straight": 0.05}, {"arc": {"radius": 0.05, "angle_deg": 90}}]}
     move_hint = "position, table_height"
 
     path: np.ndarray = None
