@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from test_sim_kernels import _kernel_sdf_depth as kernel_sdf_depth
 from tactile_bt.errors import SceneError
-from tactile_bt.sim import kernels as sk
 from tactile_bt.sim import registry
 from tactile_bt.sim.objects import SimObject
 from tactile_bt.sim.registry import register_shape, shape_class, shape_names
@@ -66,21 +66,6 @@ def probe_points(obj: SimObject, rng: np.random.Generator, n: int = 3000) -> np.
     lo, hi = np.maximum(lo, -0.1) - 0.01, np.minimum(hi, 0.1) + 0.01
     local = rng.uniform(lo, hi, (n, 3))
     return local @ obj.pose[:3, :3].T + obj.pose[:3, 3]
-
-
-def kernel_sdf_depth(obj: SimObject, points: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The compiled pad model's signed distance and depth (m) of world ``points`` pressed along
-    the world ``normal``."""
-    objf, grids = sk.pack_objects([obj], 2e7, 25e-6, 9)
-    n = len(points)
-    P = np.ascontiguousarray(points, dtype=float)
-    L = np.empty_like(P)
-    sk.to_local(objf, 0, P, n, L)
-    sdf, depth = np.empty(n), np.empty(n)
-    sk.local_sdf(objf, grids, 0, L, n, sdf)
-    nl = obj.pose[:3, :3].T @ normal
-    sk.local_depth(objf, grids, 0, L, n, float(nl[0]), float(nl[1]), float(nl[2]), depth)
-    return sdf, depth
 
 
 @pytest.mark.parametrize("kind", SHAPES)
