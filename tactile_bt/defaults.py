@@ -114,3 +114,9 @@ RERUN_RATE_HZ: float = 50.0
 #: A live mission's sensor falls silent after this many control periods without a new frame
 #: (the supervisor's ``sensor_silence_s`` where the robot file sets none).
 LIVE_SENSOR_SILENCE_PERIODS: int = 4
+
+#: Cell size (m) of the signed-distance grid through which the pad model evaluates a shape that
+#: has no compiled form of its own (:mod:`tactile_bt.sim.sdf_grid`): the meshes' default.
+SHAPE_GRID_RESOLUTION_M: float = 1.0e-3
+#: Largest such grid (points, 8 bytes each); a larger shape gets coarser cells.
+SHAPE_GRID_MAX_POINTS: int = 4_000_000

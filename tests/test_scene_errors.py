@@ -14,7 +14,10 @@ from tactile_bt.sim.objects import Cable
 from tactile_bt.sim.scene import MAX_START_DEPTH_M, SENSOR, Scene, check_seed, load_scene
 from tactile_bt.errors import SceneError
 from tactile_bt.sim.pad import SensorModel, SensorParams
-from tactile_bt.experiments.stability import ROOT, extreme_cases, stiffness_cases
+from tactile_bt import shipped
+from tactile_bt.experiments.stability import extreme_cases, stiffness_cases
+
+ROOT = shipped.root()
 
 SIM = ROOT / "sim"
 PEN = (SIM / "pen.yaml").read_text()

@@ -286,13 +286,12 @@ def bench_first_run(duration: float | None = None, command: list[str] | None = N
 
 def bench_mesh_scene() -> dict:
     """Loading the mesh scene: the signed-distance grid is built once per process."""
-    from tactile_bt.sim import mesh_object
     from tactile_bt.sim.scene import load_scene
 
     started = time.perf_counter()
     scene = load_scene(shipped.path("sim/object.yaml"))
     first = time.perf_counter() - started
-    grid = next(o for o in scene.objects if isinstance(o, mesh_object.MeshObject)).grid
+    grid = next(o for o in scene.objects if o.type_name == "mesh").grid
     started = time.perf_counter()
     load_scene(shipped.path("sim/object.yaml"))
     return {"first_load_s": first, "sdf_grid_build_s": grid.build_time_s,

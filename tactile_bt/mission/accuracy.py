@@ -50,26 +50,11 @@ FSCORE_THRESHOLDS_M = (0.001, 0.002)
 
 
 def true_surface(obj):
-    """The surface of a scene object as a ``trimesh.Trimesh`` in the world frame (m).
-
-    Box, sphere (icosphere, 5 subdivisions), cylinder (256 sections) and mesh objects; None
-    for other types (table, cable).
-    """
-    import trimesh
-
-    from tactile_bt.sim.mesh_object import MeshObject
-    from tactile_bt.sim.shapes import Box, Cylinder, Sphere
-
-    if isinstance(obj, Box):
-        mesh = trimesh.creation.box(extents=obj.size)
-    elif isinstance(obj, Sphere):
-        mesh = trimesh.creation.icosphere(subdivisions=5, radius=obj.radius)
-    elif isinstance(obj, Cylinder):
-        mesh = trimesh.creation.cylinder(radius=obj.radius, height=obj.length, sections=256)
-        mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))  # axis z → x
-    elif isinstance(obj, MeshObject):
-        mesh = trimesh.Trimesh(np.asarray(obj.grid.vertices, float), np.asarray(obj.grid.faces), process=False)
-    else:
+    """The surface of a scene object as a ``trimesh.Trimesh`` in the world frame (m): the shape's
+    ``surface_mesh()`` placed at its pose; None for objects a scan does not explore (table,
+    cable)."""
+    mesh = obj.surface_mesh()
+    if mesh is None:
         return None
     mesh.apply_transform(obj.pose)
     return mesh
@@ -84,11 +69,8 @@ def scan_object(scene, region: dict | None = None):
         if not 0 <= index < len(scene.objects):
             raise ValueError(f"scan_region.object: no object {index} in the scene")
         return index, scene.objects[index]
-    from tactile_bt.sim.mesh_object import MeshObject
-    from tactile_bt.sim.shapes import Box, Cylinder, Sphere
-
     for i, obj in enumerate(scene.objects):
-        if isinstance(obj, (Box, Sphere, Cylinder, MeshObject)):
+        if obj.surface_mesh() is not None:
             return i, obj
     return None, None
 

@@ -241,9 +241,7 @@ def run_mission(
 def scene_table_height(scene) -> float:
     """The height of the scene's table top (m, world z; NaN when it has none): the part of the
     robot's set-up a tree may know. Never the object."""
-    from tactile_bt.sim.objects import Table
-
-    table = next((o for o in scene.objects if isinstance(o, Table)), None)
+    table = scene.table
     return math.nan if table is None else float((table.pose @ (0.0, 0.0, table.height, 1.0))[2])
 
 

@@ -47,43 +47,21 @@ def _lifted(vertices: np.ndarray, contacts: np.ndarray, lift: float) -> np.ndarr
     return vertices + lift * contacts[idx, 3:6].astype(float)
 
 
-def _scene_meshes(scene, pv, extent: np.ndarray):
-    from tactile_bt.sim.objects import Cable, Table
+#: Colour and opacity of the scene's objects, by type (others: OBJECT_STYLE).
+STYLES = {"table": ("#d8cfc4", 0.5), "cable": ("#4a78b5", 0.35)}
+OBJECT_STYLE = ("#4a78b5", 0.3)
 
+
+def _scene_meshes(scene, pv, extent: np.ndarray):
+    """``(name, mesh in the world, colour, opacity)`` of every object that draws a surface."""
     meshes = []
     for obj in scene.objects:
-        if isinstance(obj, Table):
-            lo, hi = extent
-            centre = ((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, obj.height)
-            size = hi[:2] - lo[:2]
-            meshes.append(("table", pv.Plane(center=centre, i_size=size[0], j_size=size[1]), "#d8cfc4", 0.5))
-        elif isinstance(obj, Cable):
-            pts = obj.centreline_world()
-            tube = pv.lines_from_points(pts[::2] if len(pts) > 4 else pts).tube(radius=obj.radius, n_sides=16)
-            meshes.append(("cable", tube, "#4a78b5", 0.35))
-        else:
-            mesh = _primitive(obj, pv)
-            if mesh is not None:
-                meshes.append((f"object {len(meshes)}", mesh.transform(obj.pose, inplace=False), "#4a78b5", 0.3))
+        mesh = obj.view_surface(pv, extent)
+        if mesh is None:
+            continue
+        name = obj.type_name if obj.type_name in STYLES else f"object {len(meshes)}"
+        meshes.append((name, mesh.transform(obj.pose, inplace=False), *STYLES.get(obj.type_name, OBJECT_STYLE)))
     return meshes
-
-
-def _primitive(obj, pv):
-    """The object's surface in its own frame, or None for types without one."""
-    from tactile_bt.sim.mesh_object import MeshObject
-    from tactile_bt.sim.shapes import Box, Cylinder, Sphere
-
-    if isinstance(obj, Box):
-        return pv.Box(bounds=(-obj.size[0] / 2, obj.size[0] / 2, -obj.size[1] / 2, obj.size[1] / 2,
-                              -obj.size[2] / 2, obj.size[2] / 2))
-    if isinstance(obj, Sphere):
-        return pv.Sphere(radius=obj.radius, theta_resolution=48, phi_resolution=48)
-    if isinstance(obj, Cylinder):
-        return pv.Cylinder(radius=obj.radius, height=obj.length, direction=(1, 0, 0), resolution=48)
-    if isinstance(obj, MeshObject):
-        faces = np.column_stack((np.full(len(obj.grid.faces), 3), obj.grid.faces)).ravel()
-        return pv.PolyData(np.asarray(obj.grid.vertices, float), faces)
-    return None
 
 
 _METHOD_NAMES = {"delaunay": "Delaunay surface", "surface": "implicit surface", "hull": "convex hull"}

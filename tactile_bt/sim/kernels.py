@@ -22,7 +22,10 @@ Objects
 Every object is a row of :data:`OBJ_SIZE` numbers (:func:`pack_objects`): its shape code, whether
 its pose is the identity, the stiffness of one sample spring, its rotation and position, its
 world bounds, and the shape's parameters; the signed-distance grids of cables and meshes are
-concatenated in one array.  A shape gives its parameters by ``kernel_shape()``.
+concatenated in one array.  A shape gives its code and parameters by ``kernel_shape()``: the
+table, cable, box, sphere and cylinder have branches of their own here; any other shape (meshes,
+the torus, a shape a plugin registers) is read through a signed-distance grid, the
+``SHAPE_MESH`` branch (:mod:`tactile_bt.sim.sdf_grid`).
 
 Layer: sim.
 """

@@ -60,15 +60,17 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tactile_bt.errors import MeshError
-from tactile_bt.sim import kernels
+from tactile_bt.sim import sdf_grid
 from tactile_bt.sim.objects import SimObject
+from tactile_bt.sim.registry import ObjectSource, register_shape
+from tactile_bt.sim.schema import POSITIVE, STR
+from tactile_bt.sim.sdf_grid import MARGIN_CELLS, MARGIN_M
 
 __all__ = ["MeshObject", "MeshGrid", "MeshError", "mesh_grid", "build_grid", "load_mesh", "point_triangle_distance",
            "NEAR_M", "MARGIN_CELLS", "MARGIN_M"]
 
-#: Margin of the grid around the mesh's bounds: this many cells plus :data:`MARGIN_M`.
-MARGIN_CELLS = 3
-MARGIN_M = 4.0e-3
+# The grid's margin around the mesh's bounds, MARGIN_CELLS cells plus MARGIN_M, is that of every
+# signed-distance grid (tactile_bt.sim.sdf_grid).
 #: Beyond the exact shell, the nearest piece's distance up to here from the shell (both sides);
 #: deeper inside the propagated piece's, farther outside lower bounds. More than the pad's reach
 #: (half a tactel diagonal) plus the sensor's broad-phase margin, so that the broad phase's
@@ -386,6 +388,7 @@ def mesh_grid(path: str | Path, scale: float = 1.0, resolution: float = 1.0e-3) 
 # ----------------------------------------------------------------------------- object
 
 
+@register_shape("mesh")
 @dataclass(eq=False)
 class MeshObject(SimObject):
     """A closed triangle mesh (STL, OBJ, PLY, … anything trimesh reads).
@@ -393,14 +396,22 @@ class MeshObject(SimObject):
     Parameters
     ----------
     path : str or Path
-        The mesh file; its coordinates times ``scale`` are the object frame (m).
+        The mesh file; its coordinates times ``scale`` are the object frame (m). In a scene,
+        relative to the scene file's directory.
     scale : float
         Factor from file units to metres (``0.001`` for a file in millimetres).
     resolution : float
         Cell size of the signed-distance grid (m).
     grid : MeshGrid, optional
         A prebuilt grid (then ``path`` is only a label).
+
+    A shape known only by its triangles is a subclass that builds its ``grid`` with
+    :func:`build_grid` (as :meth:`from_arrays` does).
     """
+
+    schema = {"path": STR, "scale": POSITIVE, "resolution": POSITIVE}
+    required = ("path",)
+    example = {"path": "meshes/unknown_object.ply"}
 
     path: str = ""
     scale: float = 1.0
@@ -412,11 +423,23 @@ class MeshObject(SimObject):
             raise ValueError("mesh scale and resolution must be positive")
         if self.grid is None:
             self.grid = mesh_grid(self.path, self.scale, self.resolution)
-        g = self.grid
-        self._inv_h = 1.0 / g.h
-        self._grid_lo = g.lo
-        self._grid_hi = g.hi
         super().__post_init__()
+
+    @classmethod
+    def from_scene(cls, fields: dict, source: ObjectSource) -> "MeshObject":
+        """A mesh object; its file is relative to the scene file's directory. Imports trimesh."""
+        f = dict(fields)
+        path = Path(f.pop("path")).expanduser()
+        if not path.is_absolute():
+            path = Path(source.scene_file).resolve().parent / path
+        if not path.is_file():
+            raise source.error("path", f"mesh file not found: {path}")
+        try:
+            return cls(path=str(path), **f)
+        except MeshError as exc:
+            # a grid too large is the resolution's fault (or the scale's); anything else the file's
+            culprit = "resolution" if "grid is too large" in str(exc) and "resolution" in source.item.value else "path"
+            raise source.error(culprit, str(exc)) from None
 
     @classmethod
     def from_arrays(cls, vertices, faces, resolution: float = 1.0e-3, **kwargs) -> "MeshObject":
@@ -428,17 +451,13 @@ class MeshObject(SimObject):
         return self.grid.mesh_bounds
 
     def kernel_shape(self) -> tuple[int, list, np.ndarray]:
-        g = self.grid
-        return kernels.SHAPE_MESH, [*self._grid_lo, self._inv_h, *self._grid_hi, g.border_min], g.values
+        return sdf_grid.kernel_form(self.grid)
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
-        g = self.grid
-        coords = ((points - self._grid_lo) * self._inv_h).T
-        # mode="nearest" reads the clamped point outside the grid
-        v = ndimage.map_coordinates(g.values, coords, order=1, mode="nearest", prefilter=False)
-        outside = np.maximum(self._grid_lo - points, 0.0) + np.maximum(points - self._grid_hi, 0.0)
-        d_out = np.sqrt(np.einsum("ij,ij->i", outside, outside))
-        off = d_out > 0
-        if off.any():
-            v[off] = np.maximum(v[off] - d_out[off], d_out[off] + g.border_min)
-        return v
+        return sdf_grid.interpolate(self.grid, points)
+
+    def surface_mesh(self):
+        """The mesh's triangles as they are (not processed again)."""
+        import trimesh
+
+        return trimesh.Trimesh(np.asarray(self.grid.vertices, float), np.asarray(self.grid.faces), process=False)

@@ -15,9 +15,10 @@ describes its shape in its own frame (:meth:`SimObject.local_sdf`, :meth:`SimObj
 and the base class transforms points into that frame. :meth:`SimObject.moved` returns a copy
 displaced in the world (scene events).
 
-Shapes: :class:`Table` and :class:`Cable` here, ``Box``, ``Sphere`` and ``Cylinder`` in
-:mod:`tactile_bt.sim.shapes`, triangle meshes in :mod:`tactile_bt.sim.mesh_object` (which
-imports trimesh only when a mesh is loaded).
+Shapes register under their scene ``type`` (:mod:`tactile_bt.sim.registry`, which states what a
+shape provides; this base gives the defaults): :class:`Table` and :class:`Cable` here, the
+primitives and the torus in :mod:`tactile_bt.sim.shapes`, triangle meshes in
+:mod:`tactile_bt.sim.mesh_object` (which imports trimesh only when a mesh is loaded).
 
 Layer: sim.
 """
@@ -27,6 +28,7 @@ from __future__ import annotations
 import copy
 import functools
 from dataclasses import dataclass, field
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 from scipy import ndimage
@@ -34,7 +36,10 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
-from tactile_bt.sim import kernels
+from tactile_bt.sim import kernels, sdf_grid
+from tactile_bt.sim.cable_path import centreline_from_scene, polyline_from_segments
+from tactile_bt.sim.registry import ObjectSource, register_shape
+from tactile_bt.sim.schema import ANGLE_DEG, COORD, LIST, ListOf, Range
 
 __all__ = ["CONTACT_REFERENCE_AREA_M2", "SimObject", "Table", "Cable", "polyline_from_segments", "object_pose"]
 
@@ -68,8 +73,18 @@ class SimObject:
     pose : (4, 4) array, keyword only
         The object frame in the world (default identity). See :func:`object_pose`.
 
-    Objects compare by identity (their fields hold arrays).
+    Objects compare by identity (their fields hold arrays). A subclass registered as a scene
+    ``type`` (:func:`tactile_bt.sim.registry.register_shape`) states its scene keys in the class
+    attributes below (see :class:`tactile_bt.sim.registry.Shape`).
     """
+
+    #: Scene ``type`` (set by the registry), the shape's own scene keys and their kinds, the keys
+    #: a scene must give, a typical object in scene form, the keys that move it.
+    type_name: ClassVar[str] = ""
+    schema: ClassVar[Mapping[str, Any]] = {}
+    required: ClassVar[tuple[str, ...]] = ()
+    example: ClassVar[Mapping[str, Any]] = {}
+    move_hint: ClassVar[str] = "position"
 
     stiffness: float = 1.0e6
     friction: float = 0.3
@@ -97,10 +112,37 @@ class SimObject:
         """Signed distance (m) of ``(N, 3)`` points given in the object frame."""
         raise NotImplementedError
 
+    @classmethod
+    def from_scene(cls, fields: dict, source: ObjectSource) -> "SimObject":
+        """The object from a scene's checked ``fields`` (its keys, ``stiffness``, ``friction`` and
+        ``pose``); ``source`` locates the object in the file for errors."""
+        return cls(**fields)
+
     def kernel_shape(self) -> tuple[int, list, np.ndarray | None]:
         """The shape as the compiled pad model reads it (:func:`tactile_bt.sim.kernels.pack_objects`):
-        ``(shape code, parameters, signed-distance grid or None)``."""
-        raise TypeError(f"{type(self).__name__} has no compiled contact model: it needs a kernel_shape()")
+        ``(shape code, parameters, signed-distance grid or None)``.
+
+        This default samples :meth:`local_sdf` on a grid (:mod:`tactile_bt.sim.sdf_grid`, built
+        once per object and shared by its moved copies) and gives the meshes' compiled path; a
+        shape with a compiled form of its own overrides it."""
+        grid = self.__dict__.get("_sampled_grid")
+        if grid is None:
+            bounds = self.local_bounds()
+            grid = sdf_grid.sample_grid(self.local_sdf, bounds, sdf_grid.grid_cell(bounds))
+            self._sampled_grid = grid
+        return sdf_grid.kernel_form(grid)
+
+    def surface_mesh(self):
+        """The closed surface (a ``trimesh.Trimesh``, object frame, m) the accuracy metrics
+        compare a scan with; None (this default) for objects a scan does not explore."""
+        return None
+
+    def view_surface(self, pv, extent: np.ndarray):
+        """The surface ``tactile-bt view`` draws (a pyvista mesh in the object frame), or None.
+        ``pv`` is the pyvista module, ``extent`` the ``(2, 3)`` world box shown. By default the
+        :meth:`surface_mesh`."""
+        mesh = self.surface_mesh()
+        return None if mesh is None else pv.wrap(mesh)
 
     @property
     def identity_pose(self) -> bool:
@@ -179,9 +221,14 @@ class SimObject:
         return self.with_pose(T)
 
 
+@register_shape("table")
 @dataclass(eq=False)
 class Table(SimObject):
     """The half space below ``z = height`` (m) of its frame (the world's, by default)."""
+
+    schema = {"height": COORD}
+    example = {"height": 0.0}
+    move_hint = "height"
 
     height: float = 0.0
 
@@ -194,45 +241,12 @@ class Table(SimObject):
     def kernel_shape(self) -> tuple[int, list, None]:
         return kernels.SHAPE_TABLE, [self.height], None
 
-
-def polyline_from_segments(start, heading_deg: float, segments: list[dict], step: float = 0.001) -> np.ndarray:
-    """Build a planar path from straight pieces and circular arcs.
-
-    Parameters
-    ----------
-    start : (2,) start point (m).
-    heading_deg : initial direction, degrees from +x towards +y.
-    segments : list of ``{"straight": length_m}`` or ``{"arc": {"radius": m, "angle_deg": deg}}``
-        (positive angles turn left).
-    step : spacing of the returned points (m).
-
-    Returns
-    -------
-    (N, 2) array of points along the path.
-    """
-    points = [np.asarray(start, dtype=float)]
-    heading = np.deg2rad(heading_deg)
-    for seg in segments:
-        p = points[-1]
-        if "straight" in seg:
-            length = float(seg["straight"])
-            n = max(1, int(np.ceil(length / step)))
-            s = np.linspace(0.0, length, n + 1)[1:]
-            d = np.array([np.cos(heading), np.sin(heading)])
-            points.extend(p + s[:, None] * d)
-        elif "arc" in seg:
-            radius = float(seg["arc"]["radius"])
-            angle = np.deg2rad(float(seg["arc"]["angle_deg"]))
-            n = max(1, int(np.ceil(abs(angle) * radius / step)))
-            turn = np.sign(angle)
-            centre = p + radius * np.array([np.cos(heading + turn * np.pi / 2), np.sin(heading + turn * np.pi / 2)])
-            phi0 = heading - turn * np.pi / 2
-            phis = phi0 + np.linspace(0.0, angle, n + 1)[1:]
-            points.extend(centre + radius * np.stack((np.cos(phis), np.sin(phis)), axis=1))
-            heading += angle
-        else:
-            raise ValueError(f"a path segment must be 'straight' or 'arc', got {seg!r}")
-    return np.array(points)
+    def view_surface(self, pv, extent: np.ndarray):
+        """A plane at the table top under the shown ``extent`` (world box)."""
+        lo, hi = extent
+        centre = self.to_local(np.array([[(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.0]]))[0]
+        centre[2] = self.height
+        return pv.Plane(center=centre, i_size=hi[0] - lo[0], j_size=hi[1] - lo[1])
 
 
 @functools.lru_cache(maxsize=8)
@@ -266,6 +280,7 @@ def _lateral_distance_grid(path_bytes: bytes, n: int, cell: float, margin: float
     return grid, lo, s[-1]
 
 
+@register_shape("cable")
 @dataclass(eq=False)
 class Cable(SimObject):
     """A cable of circular cross-section lying on the table along a planar path.
@@ -284,10 +299,29 @@ class Cable(SimObject):
     and assume a pose that keeps the table horizontal (a shift and a turn about z).
     """
 
+    schema = {
+        "radius": Range(0.0, 0.05, lo_open=True, unit="m"),
+        "table_height": COORD,
+        "start": ListOf(2, COORD),
+        "heading_deg": ANGLE_DEG,
+        "path": LIST,
+        "points": LIST,
+    }
+    example = {"radius": 0.003, "start": [-0.05, 0.0],
+               "path": [{"straight": 0.05}, {"arc": {"radius": 0.05, "angle_deg": 90}}]}
+    move_hint = "position, table_height"
+
     path: np.ndarray = None
     radius: float = 0.003
     table_height: float = 0.0
     grid_cell: float = 0.002
+
+    @classmethod
+    def from_scene(cls, fields: dict, source: ObjectSource) -> "Cable":
+        """A cable from its ``points`` or its ``path`` pieces, checked
+        (:func:`tactile_bt.sim.cable_path.centreline_from_scene`)."""
+        points, rest = centreline_from_scene(fields, source)
+        return cls(path=points, **rest)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -337,10 +371,18 @@ class Cable(SimObject):
         d = (top - local[:, 2]) / -n[2]
         return np.where(half > 0.0, np.maximum(d, 0.0), 0.0)
 
+    def _centreline_local(self) -> np.ndarray:
+        return np.column_stack((self.path, np.full(len(self.path), self.table_height + self.radius)))
+
     def centreline_world(self) -> np.ndarray:
         """``(N, 3)`` world points of the centreline (for views and metrics)."""
-        local = np.column_stack((self.path, np.full(len(self.path), self.table_height + self.radius)))
+        local = self._centreline_local()
         return local if self._identity else local @ self._R.T + self._t
+
+    def view_surface(self, pv, extent: np.ndarray):
+        """A tube around the centreline (every other point of it)."""
+        pts = self._centreline_local()
+        return pv.lines_from_points(pts[::2] if len(pts) > 4 else pts).tube(radius=self.radius, n_sides=16)
 
     def _local_xy(self, xy: np.ndarray) -> np.ndarray:
         """World ``(N, 2)`` table points in the cable's frame (taken at the centreline's height)."""
@@ -371,3 +413,4 @@ class Cable(SimObject):
         s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(self.path, axis=0).T))))
         _, idx = cKDTree(self.path).query(xy)
         return s[idx]
+

@@ -24,14 +24,14 @@ import yaml
 
 from tactile_bt import defaults, shipped
 from tactile_bt.sim.events import EventSchedule, ObjectEvent
-from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
-from tactile_bt.sim.shapes import Box, Cylinder, Sphere
+from tactile_bt.sim.objects import Cable, Table, object_pose
 from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.robot.mounts import MountSpec
 from tactile_bt.errors import MountError
-from tactile_bt.sim.schema import (ANGLE_DEG, COORD, INT, LENGTH, LIST, MAPPING, NONNEGATIVE, POSITIVE, STR, ListOf,
+from tactile_bt.sim.schema import (ANGLE_DEG, COORD, INT, LIST, MAPPING, NONNEGATIVE, STR, ListOf,
                                    Range)
 from tactile_bt.sim.region import check_region
+from tactile_bt.sim.registry import ObjectSource, ShapeValueError, shape_class, shape_names
 from tactile_bt.sim.world import World
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
 from tactile_bt.errors import ParameterTypeError, SceneError, YamlError
@@ -53,11 +53,6 @@ MAX_TACTELS_PER_SIDE = 128
 #: depth. A few millimetres of initial contact settle (``tactile-bt stability`` starts the pad
 #: 2 mm inside the rigid pen); more throws the pad out with tens of newtons on the first tick.
 MAX_START_DEPTH_M = 3.0e-3
-#: A cable's centreline fits in a square of this side (m); its distance grid covers it at 2 mm.
-MAX_CABLE_EXTENT_M = 1.0
-#: ... and is at most this long (m).
-MAX_CABLE_LENGTH_M = 10.0
-
 
 def check_seed(value: Any) -> int:
     """``value`` as a seed (a non-negative integer that fits in 64 bits), else ValueError."""
@@ -121,30 +116,10 @@ SUPERVISOR = {
     "workspace_min_m": ListOf(3, COORD),
     "workspace_max_m": ListOf(3, COORD),
 }
-#: Fields every object has: its type, pose in the world and contact properties.
-_COMMON = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, ANGLE_DEG),
-           "stiffness": Range(0.0, lo_open=True, unit="N/m"), "friction": NONNEGATIVE}
-OBJECTS = {
-    "table": {**_COMMON, "height": COORD},
-    "cable": {
-        **_COMMON,
-        "radius": Range(0.0, 0.05, lo_open=True, unit="m"),
-        "table_height": COORD,
-        "start": ListOf(2, COORD),
-        "heading_deg": ANGLE_DEG,
-        "path": LIST,
-        "points": LIST,
-    },
-    "box": {**_COMMON, "size": ListOf(3, LENGTH)},
-    "sphere": {**_COMMON, "radius": LENGTH},
-    "cylinder": {**_COMMON, "radius": LENGTH, "length": LENGTH},
-    "mesh": {**_COMMON, "path": STR, "scale": POSITIVE, "resolution": POSITIVE},
-}
-#: Fields an object type cannot do without.
-REQUIRED = {"box": ("size",), "sphere": ("radius",), "cylinder": ("radius", "length"), "mesh": ("path",)}
-#: A cable's path pieces.
-STRAIGHT = LENGTH
-ARC = {"radius": LENGTH, "angle_deg": ANGLE_DEG}
+#: Fields every object has: its type, pose in the world and contact properties. Each shape adds
+#: its own (:attr:`tactile_bt.sim.registry.Shape.schema`).
+COMMON_OBJECT_FIELDS = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": ListOf(3, ANGLE_DEG),
+                        "stiffness": Range(0.0, lo_open=True, unit="N/m"), "friction": NONNEGATIVE}
 EVENT = {"at_s": Range(0.0, unit="s"), "object": INT, "translate": ListOf(3, COORD),
          "rotate_deg": ListOf(3, ANGLE_DEG)}
 
@@ -244,98 +219,42 @@ class Scene:
         """The first cable of the scene (its centreline is the ground truth of path metrics)."""
         return next((o for o in self.objects if isinstance(o, Cable)), None)
 
+    @property
+    def table(self) -> Table | None:
+        """The first table of the scene (the robot's known set-up: the plane objects lie on)."""
+        return next((o for o in self.objects if isinstance(o, Table)), None)
+
+
+def object_schema(kind: str) -> dict:
+    """The scene keys of an object of ``type`` ``kind`` and their kinds."""
+    return {**COMMON_OBJECT_FIELDS, **shape_class(kind).schema}
+
 
 def _build_object(item: Located, index: int, scene_file: str = "") -> Any:
     where_ = f"objects.{index}."
+    names = shape_names()
     if not isinstance(item.value, dict) or "type" not in item.value:
-        raise item.error(f"objects.{index}: an object needs a 'type' ({', '.join(OBJECTS)})")
+        raise item.error(f"objects.{index}: an object needs a 'type' ({', '.join(names)})")
     kind = _check(item.value["type"], STR, where_ + "type")
-    if kind not in OBJECTS:
+    if kind not in names:
         from difflib import get_close_matches
 
-        hint = get_close_matches(kind, list(OBJECTS), n=1)
+        hint = get_close_matches(kind, names, n=1)
         raise item.value["type"].error(f"{where_}type: unknown object type {kind!r}"
                                        + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                                       + f"; valid: {', '.join(OBJECTS)}")
-    f = _fields(item, OBJECTS[kind], where_)
+                                       + f"; valid: {', '.join(names)}")
+    shape = shape_class(kind)
+    f = _fields(item, object_schema(kind), where_)
     f.pop("type")
-    for name in REQUIRED.get(kind, ()):
+    for name in shape.required:
         if name not in f:
             raise item.error(f"{where_}{name}: a {kind} needs '{name}'")
     f["pose"] = object_pose(f.pop("position", (0.0, 0.0, 0.0)), f.pop("rpy_deg", (0.0, 0.0, 0.0)))
-    if kind == "table":
-        return Table(**f)
-    if kind == "box":
-        return Box(**{**f, "size": tuple(f["size"])})
-    if kind == "sphere":
-        return Sphere(**f)
-    if kind == "cylinder":
-        return Cylinder(**f)
-    if kind == "mesh":
-        return _build_mesh(item, f, where_, scene_file)
-    field_name = where_ + ("points" if "points" in f else "path")
-    located = item.value.get("points" if "points" in f else "path", item)
-    if "points" in f:
-        pts = np.array([_check(p, ListOf(2, COORD), f"{where_}points[{i}]") for i, p in enumerate(f.pop("points"))])
-        f.pop("path", None)
-        if len(pts) < 2:
-            raise located.error(f"{where_}points: a cable needs at least 2 points, got {len(pts)}")
-    else:
-        if "path" not in f:
-            raise item.error(f"{where_}: a cable needs 'path' (segments) or 'points'")
-        segments = [_path_segment(seg, f"{where_}path[{i}]") for i, seg in enumerate(f.pop("path"))]
-        if not segments:
-            raise located.error(f"{where_}path: a cable needs at least one piece")
-        length = sum(s["straight"] if "straight" in s else abs(np.deg2rad(s["arc"]["angle_deg"])) * s["arc"]["radius"]
-                     for s in segments)
-        if length > MAX_CABLE_LENGTH_M:
-            raise located.error(f"{where_}path: the cable is {length:.3g} m long, more than the "
-                                f"{MAX_CABLE_LENGTH_M:g} m allowed")
-        pts = polyline_from_segments(f.pop("start", (0.0, 0.0)), f.pop("heading_deg", 0.0), segments)
-    f.pop("start", None)
-    f.pop("heading_deg", None)
-    extent = float(np.ptp(pts, axis=0).max())
-    if extent > MAX_CABLE_EXTENT_M:
-        raise located.error(f"{field_name}: the cable's centreline spans {extent:.3g} m, more than the "
-                            f"{MAX_CABLE_EXTENT_M:g} m allowed")
-    if float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) < 1e-3:
-        raise located.error(f"{field_name}: the cable's centreline must be at least 1 mm long")
-    return Cable(path=pts, **f)
-
-
-def _path_segment(seg: Located, field_name: str) -> dict:
-    """One piece of a cable path, ``{straight: length}`` or ``{arc: {radius, angle_deg}}``, checked."""
-    v = seg.value
-    ok = isinstance(v, dict) and len(v) == 1 and (
-        "straight" in v
-        or ("arc" in v and isinstance(v["arc"].value, dict) and set(v["arc"].value) == set(ARC))
-    )
-    if not ok:
-        raise seg.error(f"{field_name}: expected {{straight: length_m}} or "
-                        f"{{arc: {{radius: m, angle_deg: deg}}}}, got {plain(seg)!r}")
-    if "straight" in v:
-        return {"straight": _check(v["straight"], STRAIGHT, f"{field_name}.straight")}
-    arc = v["arc"].value
-    return {"arc": {k: _check(arc[k], kind, f"{field_name}.arc.{k}") for k, kind in ARC.items()}}
-
-
-def _build_mesh(item: Located, f: dict, where_: str, scene_file: str):
-    """A mesh object; its file is relative to the scene file's directory. Imports trimesh."""
-    from tactile_bt.sim.mesh_object import MeshObject
-    from tactile_bt.errors import MeshError
-
-    located = item.value["path"]
-    path = Path(f.pop("path")).expanduser()
-    if not path.is_absolute():
-        path = Path(scene_file).resolve().parent / path
-    if not path.is_file():
-        raise located.error(f"{where_}path: mesh file not found: {path}")
+    source = ObjectSource(item, where_, scene_file, _check)
     try:
-        return MeshObject(path=str(path), **f)
-    except MeshError as exc:
-        # a grid too large is the resolution's fault (or the scale's); anything else the file's
-        culprit = "resolution" if "grid is too large" in str(exc) and "resolution" in item.value else "path"
-        raise item.value[culprit].error(f"{where_}{culprit}: {exc}") from None
+        return shape.from_scene(f, source)
+    except ShapeValueError as exc:
+        raise source.error(exc.field, str(exc)) from None
 
 
 def _build_event(item: Located, index: int, n_objects: int) -> ObjectEvent:
@@ -434,11 +353,11 @@ def _check_start(root: Located, scene: Scene) -> None:
         return
     obj = root.value["objects"].value[index]
     kind = obj.value["type"].value
+    moves = scene.objects[index].move_hint
     if "position" in fields or "position" not in obj.value:
         loc, blame = located("position"), "mount.position"
     else:
         loc, blame = obj.value["position"], f"objects.{index}.position"
-    moves = {"table": "height", "cable": "position, table_height"}.get(kind, "position")
     raise loc.error(f"{blame}: the pad starts {depths[index] * 1e3:.3g} mm inside objects.{index} ({kind}){in_scene(loc)}, "
                     f"more than the {MAX_START_DEPTH_M * 1e3:g} mm allowed; start it a few millimetres above the "
                     f"object: move the pad (mount.position, mount.rpy_deg) or the object (objects.{index}.{moves})")

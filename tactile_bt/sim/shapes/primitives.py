@@ -2,7 +2,8 @@
 
 Each shape is centred on its frame's origin (``pose`` places it in the world, see
 :class:`tactile_bt.sim.objects.SimObject`). The signed distances are exact Euclidean
-distances, hence 1-Lipschitz, negative inside.
+distances, hence 1-Lipschitz, negative inside. Each has a compiled form of its own in
+:mod:`tactile_bt.sim.kernels` (``kernel_shape``) and a ray depth (``depth``).
 
 Layer: sim.
 """
@@ -15,8 +16,10 @@ import numpy as np
 
 from tactile_bt.sim import kernels
 from tactile_bt.sim.objects import SimObject
+from tactile_bt.sim.registry import register_shape
+from tactile_bt.sim.schema import LENGTH, ListOf
 
-__all__ = ["Box", "Sphere", "Cylinder"]
+__all__ = ["Box", "Sphere", "Cylinder", "positive"]
 
 
 def _ray_depth(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -36,13 +39,15 @@ def _slab(p: np.ndarray, n: np.ndarray, half) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(a, b), np.maximum(a, b)
 
 
-def _positive(name: str, value: float) -> float:
+def positive(name: str, value: float) -> float:
+    """``value`` as a float, or a ValueError naming ``name`` when it is not a positive number."""
     value = float(value)
     if not np.isfinite(value) or value <= 0:
         raise ValueError(f"{name} must be a positive number, got {value!r}")
     return value
 
 
+@register_shape("box")
 @dataclass(eq=False)
 class Box(SimObject):
     """A rectangular box of edge lengths ``size`` = [x, y, z] (m), centred on its origin.
@@ -51,10 +56,14 @@ class Box(SimObject):
     line.
     """
 
+    schema = {"size": ListOf(3, LENGTH)}
+    required = ("size",)
+    example = {"size": [0.16, 0.12, 0.06]}
+
     size: tuple = (0.1, 0.1, 0.1)
 
     def __post_init__(self) -> None:
-        self.size = tuple(_positive(f"box size[{i}]", v) for i, v in enumerate(self.size))
+        self.size = tuple(positive(f"box size[{i}]", v) for i, v in enumerate(self.size))
         if len(self.size) != 3:
             raise ValueError("box size must be [x, y, z]")
         self._half = 0.5 * np.array(self.size)
@@ -65,6 +74,15 @@ class Box(SimObject):
 
     def kernel_shape(self) -> tuple[int, list, None]:
         return kernels.SHAPE_BOX, list(self._half), None
+
+    def surface_mesh(self):
+        import trimesh
+
+        return trimesh.creation.box(extents=self.size)
+
+    def view_surface(self, pv, extent: np.ndarray):
+        hx, hy, hz = self._half
+        return pv.Box(bounds=(-hx, hx, -hy, hy, -hz, hz))
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         q = np.abs(points) - self._half
@@ -80,14 +98,19 @@ class Box(SimObject):
         return _ray_depth(lo, hi)
 
 
+@register_shape("sphere")
 @dataclass(eq=False)
 class Sphere(SimObject):
     """A ball of ``radius`` (m) centred on its origin."""
 
+    schema = {"radius": LENGTH}
+    required = ("radius",)
+    example = {"radius": 0.05}
+
     radius: float = 0.05
 
     def __post_init__(self) -> None:
-        self.radius = _positive("sphere radius", self.radius)
+        self.radius = positive("sphere radius", self.radius)
         super().__post_init__()
 
     def local_bounds(self) -> np.ndarray:
@@ -96,6 +119,15 @@ class Sphere(SimObject):
 
     def kernel_shape(self) -> tuple[int, list, None]:
         return kernels.SHAPE_SPHERE, [self.radius], None
+
+    def surface_mesh(self):
+        """An icosphere of 5 subdivisions (20 480 triangles)."""
+        import trimesh
+
+        return trimesh.creation.icosphere(subdivisions=5, radius=self.radius)
+
+    def view_surface(self, pv, extent: np.ndarray):
+        return pv.Sphere(radius=self.radius, theta_resolution=48, phi_resolution=48)
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         return np.sqrt(np.einsum("ij,ij->i", points, points)) - self.radius
@@ -108,18 +140,23 @@ class Sphere(SimObject):
         return np.where(disc > 0.0, _ray_depth(b - root, b + root), 0.0)
 
 
+@register_shape("cylinder")
 @dataclass(eq=False)
 class Cylinder(SimObject):
     """A solid cylinder of ``radius`` and ``length`` (m) with flat ends, its axis along the
     object's x, centred on its origin. A pen lying on a table: ``rpy_deg [0, 0, yaw]`` and the
     centre ``radius`` above the table top."""
 
+    schema = {"radius": LENGTH, "length": LENGTH}
+    required = ("radius", "length")
+    example = {"radius": 0.005, "length": 0.14}
+
     radius: float = 0.005
     length: float = 0.14
 
     def __post_init__(self) -> None:
-        self.radius = _positive("cylinder radius", self.radius)
-        self.length = _positive("cylinder length", self.length)
+        self.radius = positive("cylinder radius", self.radius)
+        self.length = positive("cylinder length", self.length)
         super().__post_init__()
 
     def local_bounds(self) -> np.ndarray:
@@ -128,6 +165,17 @@ class Cylinder(SimObject):
 
     def kernel_shape(self) -> tuple[int, list, None]:
         return kernels.SHAPE_CYLINDER, [self.radius, self.length / 2], None
+
+    def surface_mesh(self):
+        """256 sections, the axis along x."""
+        import trimesh
+
+        mesh = trimesh.creation.cylinder(radius=self.radius, height=self.length, sections=256)
+        mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))  # axis z → x
+        return mesh
+
+    def view_surface(self, pv, extent: np.ndarray):
+        return pv.Cylinder(radius=self.radius, height=self.length, direction=(1, 0, 0), resolution=48)
 
     def local_sdf(self, points: np.ndarray) -> np.ndarray:
         radial = np.hypot(points[:, 1], points[:, 2]) - self.radius
