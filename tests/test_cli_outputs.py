@@ -212,7 +212,7 @@ def test_ctrl_c_in_the_mission_leaves_only_this_runs_outputs_and_names_them(tmp_
     assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "5", "--out", str(out)]) == 130
     err = capsys.readouterr().err.strip()
     written = sorted(p.name for p in out.iterdir())
-    assert written == sorted(["report.json", "log.npz", "errors.png"])  # a force hold records no contacts
+    assert written == sorted(["report.json", "log.npz", "errors.png", "tree.png"])  # a force hold records no contacts
     assert err.startswith("interrupted at 0.2") and f"{out} holds this run's report.json, log.npz, errors.png" in err
     assert json.loads((out / "report.json").read_text())["status"] == "interrupted"
 

@@ -109,6 +109,11 @@ NOT_RUN = {
     "tactile-bt run trees/scan_object.yaml": "a frontier scan runs 40-130 s of mission time, 15-60 s of wall time "
                                              "(docs/scanning.md gives each): too long for this file's budget",
     "tactile-bt view out/scan_object/object": "renders a scan of trees/scan_object.yaml, which is not run here",
+    "tactile-bt live trees/cable_follow.yaml --sensor /dev/ttyACM0": "needs a tactile module and an arm",
+    "tactile-bt twin sim/cable.yaml --out out/twin": "a server for the live command after it; tests/test_live.py "
+                                                     "runs the twin and live end to end, with their faults",
+    "tactile-bt live trees/cable_follow.yaml --sensor /dev/pts/3": "needs the twin of the command before it "
+                                                                   "(tests/test_live.py)",
 }
 
 # Commands the docs say run until Ctrl-C or SIGTERM: (seconds to let them run, signal).

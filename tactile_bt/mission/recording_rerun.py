@@ -1,6 +1,6 @@
 """A rerun recording of everything the control loop sees, on a ``mission_time`` timeline.
 
-Entities (world frame z up, metres; the pad's frame is O_s of DESIGN.md):
+Entities (world frame z up, metres; the pad's frame is O_s of docs/architecture.md):
 
 * ``tactile/force_image`` — the calibrated force image (N per tactel, rows × columns), with
   ``tactile/force_image/region`` (the contact region R, a segmentation),
