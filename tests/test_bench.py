@@ -10,6 +10,7 @@ from tactile_bt.experiments.bench import (bench_control_cycle, bench_features, b
                                           bench_scan, format_bench)
 
 
+@pytest.mark.slow
 def test_bench_figures_are_ratios_measured_in_one_run():
     figures = {
         "features": bench_features(repeats=1, number=5),

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tactile_bt.cli import main
 from tactile_bt.contacts.ply import read_ply_points
@@ -26,6 +27,7 @@ def test_run_writes_outputs_and_applies_overrides(tmp_path, capsys):
     assert "x real time" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_the_command_ends_with_every_output_complete(tmp_path):
     """The command's process skips the interpreter's teardown: nothing it wrote may be cut."""
     out = tmp_path / "run"

@@ -96,7 +96,8 @@ MEASURED_S = {
 }
 
 NOT_RUN = {
-    "python -m pytest": "the whole test suite, this file included: minutes on 2 cores; CI runs it",
+    "ruff check && python -m pytest": "the linter and the whole test suite, this file included: minutes on 2 "
+                                       "cores; CI runs it",
     "tactile-bt tree bad.yaml": "the doc shows the error but not bad.yaml itself; "
                                 "tests/test_loader.py and tests/test_cli.py check these messages",
     "tactile-bt sensor stream /dev/ttyACM0": "needs a tactile module on a serial port",
@@ -393,6 +394,7 @@ def _report(name: str, log_dir: Path) -> str:
     return f"\n--- stdout\n{out}\n--- stderr\n{err}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("group", GROUPS, ids=[g[0].id for g in GROUPS])
 def test_doc_command_runs(group, tmp_path):
     env, logs = _env(), tmp_path / "logs"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 import importlib.util
 import sys
 from pathlib import Path
@@ -17,6 +19,7 @@ def _checker():
     return module
 
 
+@pytest.mark.slow
 def test_the_readme_cable_figures_match_a_fresh_run(capsys):
     assert _checker().main([]) == 0, capsys.readouterr().out
     assert "6 README rows compared" in capsys.readouterr().out

@@ -21,6 +21,7 @@ from tactile_bt.sense.hardware.soak import DEFAULT_FAULTS, run_soak
 T = 5.0
 
 
+@pytest.mark.slow
 def test_every_frame_arrives_intact_at_1900_hz():
     # At least 2800 frames (~1.5 s at 1900 Hz) however loaded the machine is.  How close the
     # emulator's real-time rate gets to 1900 Hz depends on the CPU it gets, so it is reported

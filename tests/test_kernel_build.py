@@ -35,6 +35,7 @@ for group in warmup.GROUPS:
 """
 
 
+@pytest.mark.slow
 def test_the_build_ahead_compiles_exactly_what_a_mission_calls(tmp_path):
     """A mission on an empty cache compiles no other version of a function built ahead (a wrong
     signature would be built for nothing, and the right one compiled late, in series)."""
@@ -66,6 +67,7 @@ def test_an_unknown_group_is_named():
         warmup.compile_group("elbow")
 
 
+@pytest.mark.slow
 def test_a_first_run_on_an_empty_cache_builds_on_two_processes_and_gives_the_same_run(tmp_path):
     """The cold path end to end: a fresh process with an empty kernel cache runs the mission
     (the second process fills the cache as it goes), and a warm run of it gives the same report."""

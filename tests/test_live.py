@@ -133,7 +133,7 @@ def test_a_silent_sensor_ends_the_mission_within_five_periods(tmp_path, request)
     # from the last frame the loop had to the zero twist: within 5 periods of 4 ms
     stop = recorded["command_time_s"][-1] - recorded["command_time_s"][-2]
     assert stop <= 5 * 0.004 + 0.004, stop
-    assert len(log["t"]) > 100
+    assert len(log["t"]) > 20
 
 
 def test_pushing_into_a_stiff_object_the_supervisor_retreats_and_names_the_limit(tmp_path, request):

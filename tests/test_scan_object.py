@@ -100,6 +100,7 @@ def test_a_table_height_that_is_not_a_number_is_an_error():
         h.tick()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["abc", "inf", "true", "[0, 1]"])
 def test_a_bad_table_height_on_the_command_line_is_one_error_line_before_the_run(tmp_path, value):
     import subprocess

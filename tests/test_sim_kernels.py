@@ -12,11 +12,10 @@ where the noise-free value lies within rounding of a half count).
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
@@ -29,7 +28,7 @@ from tactile_bt.robot.redundancy import LimitAvoidance
 from tactile_bt.robot.resolved_rate import damped_least_squares
 from tactile_bt.sim import kernels as sk
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
-from tactile_bt.sim.pad import SensorModel, SensorParams
+from tactile_bt.sim.pad import SensorModel
 from tactile_bt.sim.scene import load_scene
 from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 

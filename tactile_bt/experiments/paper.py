@@ -123,7 +123,7 @@ def format_tables(results: dict) -> str:
                          ("III", "Hybrid position/force control")):
         lines += [f"**Table {table}: {title}** (ours: mean of the trials; paper in brackets)", "",
                   "| run | steady-state error | standard deviation | response time |", "|---|---|---|---|"]
-        for key, r in results.items():
+        for r in results.values():
             if r["table"] != table:
                 continue
             for metric, row in r["rows"].items():

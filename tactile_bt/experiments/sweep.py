@@ -300,7 +300,7 @@ def _check_combinations(spec: SweepSpec, grid_locs: dict, fixed_locs: dict, dura
             tree_cache[key] = True
 
     tree({})  # the tree file itself: its own errors name its file and line
-    for label, file in spec.scenes:
+    for _label, file in spec.scenes:
         scene(file, [])
     fixed_over, fixed_params = _split(spec.fixed)
     for key, value in spec.fixed:

@@ -206,6 +206,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
         watchers = start_watchers(watchers, loop, log, scene)
         frame = link.read(FIRST_FRAME_TIMEOUT_S)
         t_start = frame.timestamp
+        pose = robot_obj.pad_pose()
         joints = getattr(robot_obj, "joint_state", lambda: None)()
         if joints is not None:
             log.track_joints(len(joints.positions_rad), (joints.lower_rad, joints.upper_rad))

@@ -420,7 +420,7 @@ def pad_contact(T, data, wK):
             j = 0
             for ii in range(m):
                 total = 0.0
-                for s in range(ns):
+                for _ in range(ns):
                     d = D[j]
                     total += d
                     if d > 0.0:

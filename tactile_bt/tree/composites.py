@@ -129,13 +129,13 @@ class Sequence(_Walked, composites.Sequence):
             self.current_child = None
             self.stop(_SUCCESS)
             return
-        for index in range(index, len(children)):
-            child = children[index]
+        for at in range(index, len(children)):
+            child = children[at]
             yield child
             if child.status != _SUCCESS:
                 if not self.memory:
                     # invalidate the remainder of the sequence, i.e. kill dangling runners
-                    for later in children[index + 1:]:
+                    for later in children[at + 1:]:
                         if later.status != _INVALID:
                             later.stop(_INVALID)
                 # stop the sequence if a terminal (non-success) state was reached
@@ -144,8 +144,8 @@ class Sequence(_Walked, composites.Sequence):
                 else:
                     self.status = child.status
                 return
-            if index + 1 < len(children):  # advance to the next sibling, if any
-                self.current_child = children[index + 1]
+            if at + 1 < len(children):  # advance to the next sibling, if any
+                self.current_child = children[at + 1]
         self.stop(_SUCCESS)
 
 
