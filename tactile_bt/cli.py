@@ -442,6 +442,20 @@ def _executor_options(parser: argparse.ArgumentParser) -> None:
                             "same files at the same paths)")
 
 
+def _orientation_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--orientation", choices=("moments", "hough"), default="moments",
+                        help="edge orientation method (default: moments)")
+
+
+def _record_options(parser: argparse.ArgumentParser) -> None:
+    """``--record FILE`` (frames and poses for ``replay``) and ``--force``, of ``run`` and ``live``."""
+    parser.add_argument("--record", default=None, metavar="FILE",
+                        help="record frames and poses (chunked, crash-safe) and FILE.calibration.npz, for "
+                             "'tactile-bt replay'")
+    parser.add_argument("--force", action="store_true",
+                        help="overwrite an existing --record FILE and its FILE.calibration.npz")
+
+
 def _plugin_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
                         help="import MODULE (a module name, or the path of a .py file) first, so that the node "
@@ -464,13 +478,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=nonnegative_int, default=None, help="random seed, >= 0 (default: the scene's)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. objects.1.stiffness=1e5 (repeatable)")
-    run.add_argument("--orientation", choices=("moments", "hough"), default="moments",
-                     help="edge orientation method (default: moments)")
     run.add_argument("--via-emulator", action="store_true",
                      help="carry every frame through the device emulator, a pty and the serial driver")
-    run.add_argument("--record", default=None, metavar="FILE",
-                     help="record frames and poses (chunked, crash-safe) and FILE.calibration.npz")
-    run.add_argument("--force", action="store_true", help="overwrite an existing --record FILE and its FILE.calibration.npz")
     run.add_argument("--reconstruct", default=None, choices=("auto", "delaunay", "surface", "hull", "none"),
                      help="reconstruct a surface from the contacts, or 'none' (default: as the tree's "
                           "record_contacts says)")
@@ -481,6 +490,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="set a blackboard key the tree reads before it starts, e.g. /goal/pressure=1800 (repeatable)")
     run.add_argument("--out", required=True,
                      help="output directory; the outputs of an earlier run there are replaced")
+    _orientation_option(run)
+    _record_options(run)
     _plugin_option(run)
     _watch_options(run)
     run.set_defaults(func=_cmd_run)
@@ -496,12 +507,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="mission time budget in s (default: until the tree ends, or Ctrl-C)")
     live.add_argument("--truth", default=None, metavar="SCENE",
                       help="score the contacts against this scene's ground truth (runs against the twin)")
-    live.add_argument("--record", default=None, metavar="FILE", help="record frames and poses for 'tactile-bt replay'")
-    live.add_argument("--force", action="store_true", help="overwrite an existing --record FILE")
     live.add_argument("--module", default=None, help="the sensor module (its cell order), overriding the robot file's")
-    live.add_argument("--orientation", choices=("moments", "hough"), default="moments",
-                      help="edge orientation method (default: moments)")
     live.add_argument("--out", required=True, help="output directory")
+    _orientation_option(live)
+    _record_options(live)
     _plugin_option(live)
     _watch_options(live)
     live.set_defaults(func=_cmd_live)
@@ -528,9 +537,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="calibration .npz (default: RECORDING.calibration.npz, else the nominal one, with a warning)")
     replay.add_argument("--speed", type=positive_float, default=None,
                         help="1 = the recorded pace, 2 = twice as fast (default: as fast as possible)")
-    replay.add_argument("--orientation", choices=("moments", "hough"), default="moments",
-                        help="edge orientation method (default: moments)")
     replay.add_argument("--out", default=None, help="output directory")
+    _orientation_option(replay)
     _plugin_option(replay)
     _watch_options(replay)
     replay.set_defaults(func=_cmd_replay)

@@ -155,7 +155,9 @@ def test_a_run_that_never_touches_says_so(tmp_path, capsys):
     assert report["status"] == "failure" and report["reason"] == "no contact was made"
 
 
-def test_ctrl_c_keeps_every_cycle_so_far(tmp_path, capsys, monkeypatch):
+@pytest.fixture
+def ctrl_c_after_0_2_s(monkeypatch):
+    """Ctrl-C once the mission's progress passes 0.2 s of mission time."""
     import tactile_bt.progress
 
     def interrupt(self, done, total=None, note=""):
@@ -163,6 +165,9 @@ def test_ctrl_c_keeps_every_cycle_so_far(tmp_path, capsys, monkeypatch):
             raise KeyboardInterrupt
 
     monkeypatch.setattr(tactile_bt.progress.Progress, "__call__", interrupt)
+
+
+def test_ctrl_c_keeps_every_cycle_so_far(tmp_path, capsys, ctrl_c_after_0_2_s):
     out = tmp_path / "out"
     assert main(["run", FORCE_HOLD, "--scene", PEN, "--duration", "5", "--out", str(out)]) == 130
     err = capsys.readouterr().err
@@ -197,14 +202,7 @@ def test_ctrl_c_while_the_scene_loads_claims_no_outputs(earlier, tmp_path, capsy
     assert all((out / name).read_text() == "an earlier run" for name in earlier)
 
 
-def test_ctrl_c_in_the_mission_leaves_only_this_runs_outputs_and_names_them(tmp_path, capsys, monkeypatch):
-    import tactile_bt.progress
-
-    def interrupt(self, done, total=None, note=""):
-        if done > 0.2:
-            raise KeyboardInterrupt
-
-    monkeypatch.setattr(tactile_bt.progress.Progress, "__call__", interrupt)
+def test_ctrl_c_in_the_mission_leaves_only_this_runs_outputs_and_names_them(tmp_path, capsys, ctrl_c_after_0_2_s):
     out = tmp_path / "out"
     out.mkdir()
     for name in OUTPUT_FILES:  # as an earlier scan left them
