@@ -132,7 +132,8 @@ def plot_errors(result, path: str | Path | None = None):
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="k", lw=0.5)
     report = result.summary
-    fig.suptitle(f"{Path(report.tree).stem} on {Path(report.scene).stem}: {report.status}, seed {report.seed}",
+    fig.suptitle(f"{Path(report.tree).stem} on {Path(report.scene).stem or 'a live set-up'}: {report.status}"
+                 + (f", seed {report.seed}" if report.seed is not None else ""),
                  fontsize=10)
     if path is not None:
         fig.savefig(path, dpi=110)
@@ -158,7 +159,8 @@ def write_outputs(result, out: Path, render: bool = True) -> None:
 
         report = result.summary
         plot_tree_status(result.log, report.status, report.reason, path=out / "tree.png",
-                         title=f"{Path(report.tree).stem}: node status, seed {report.seed}")
+                         title=f"{Path(report.tree).stem}: node status"
+                               + (f", seed {report.seed}" if report.seed is not None else ""))
     surface = getattr(result, "surface", None)
     if surface is not None and len(surface.faces):
         from tactile_bt.contacts.reconstruct import write_surface
