@@ -48,6 +48,15 @@ def twin(scene: str, out: Path, *extra: str, domain: int):
             proc.wait()
 
 
+def relaxed(robot: Path) -> Path:
+    """The twin's robot file with a silent sensor and a stale pose taken at 0.1 s: for the tests
+    that are not about those faults, so that a test machine busy with other work (a frame 20 ms
+    late now and then) does not end them."""
+    copy = robot.with_name("robot_relaxed.yaml")
+    copy.write_text(robot.read_text() + "supervisor: {sensor_silence_s: 0.1, pose_stale_s: 0.1}\n")
+    return copy
+
+
 def live(tree: str, port: str, robot: Path, out: Path, *extra: str, domain: int) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "tactile_bt.cli", "live", tree, "--sensor", port, "--robot",
                              str(robot), "--out", str(out), *extra],
@@ -62,8 +71,8 @@ def _domain(request) -> int:
 def test_live_against_the_twin_follows_the_whole_cable(tmp_path, request):
     domain = _domain(request)
     with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
-        proc = live(CABLE_TREE, port, robot, tmp_path / "live", "--truth", "sim/cable.yaml", "--duration", "60",
-                    domain=domain)
+        proc = live(CABLE_TREE, port, relaxed(robot), tmp_path / "live", "--truth", "sim/cable.yaml",
+                    "--duration", "60", domain=domain)
         out, err = proc.communicate(timeout=180)
     report = json.loads((tmp_path / "live" / "report.json").read_text())
     assert report["status"] == "success" and report["reason"].startswith("cable_end"), (report["reason"], err[-2000:])
@@ -88,7 +97,7 @@ def _wait_for_commands(twin_out: Path, proc: subprocess.Popen, seconds: float) -
 def test_sigterm_stops_the_robot_and_writes_the_outputs(tmp_path, request):
     domain = _domain(request)
     with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
-        proc = live(CABLE_TREE, port, robot, tmp_path / "live", domain=domain)
+        proc = live(CABLE_TREE, port, relaxed(robot), tmp_path / "live", domain=domain)
         _wait_for_commands(tmp_path / "twin", proc, 6.0)  # started (a few s) and running
         proc.send_signal(signal.SIGTERM)
         proc.communicate(timeout=30)
@@ -104,7 +113,7 @@ def test_sigterm_stops_the_robot_and_writes_the_outputs(tmp_path, request):
 def test_the_twin_holds_within_100_ms_when_live_is_killed(tmp_path, request):
     domain = _domain(request)
     with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
-        proc = live(CABLE_TREE, port, robot, tmp_path / "live", domain=domain)
+        proc = live(CABLE_TREE, port, relaxed(robot), tmp_path / "live", domain=domain)
         _wait_for_commands(tmp_path / "twin", proc, 9.0)  # following the cable at 20 mm/s by now
         proc.kill()
         proc.wait()
@@ -121,7 +130,8 @@ def test_the_twin_holds_within_100_ms_when_live_is_killed(tmp_path, request):
 
 def test_a_silent_sensor_ends_the_mission_within_five_periods(tmp_path, request):
     domain = _domain(request)
-    with twin("sim/cable.yaml", tmp_path / "twin", "--stall-after", "4", domain=domain) as (port, robot, _):
+    # the robot file as the twin wrote it: the default limit, 4 periods without a frame
+    with twin("sim/cable.yaml", tmp_path / "twin", "--stall-after", "6", domain=domain) as (port, robot, _):
         proc = live(CABLE_TREE, port, robot, tmp_path / "live", domain=domain)
         proc.communicate(timeout=60)
         time.sleep(0.3)
@@ -141,7 +151,7 @@ def test_pushing_into_a_stiff_object_the_supervisor_retreats_and_names_the_limit
     tree.write_text("root:\n  guided_slide: {twist: [0, 0, 0.01, 0, 0, 0], require_contact: false}\n")
     domain = _domain(request)
     with twin("sim/pen.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
-        proc = live(str(tree), port, robot, tmp_path / "live", "--duration", "20", domain=domain)
+        proc = live(str(tree), port, relaxed(robot), tmp_path / "live", "--duration", "20", domain=domain)
         proc.communicate(timeout=60)
         time.sleep(0.3)
     report = json.loads((tmp_path / "live" / "report.json").read_text())

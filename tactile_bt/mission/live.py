@@ -30,6 +30,7 @@ import numpy as np
 from tactile_bt import defaults
 from tactile_bt.control.spatial import body_to_spatial
 from tactile_bt.mission.robot_file import RobotFile, load_robot_file
+from tactile_bt.mission.twin_devices import raise_priority
 
 __all__ = ["RealtimeLog", "run_live", "realtime_summary", "plot_realtime"]
 
@@ -182,6 +183,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     supervisor = robot_obj = None
     switch = sys.getswitchinterval()
     sys.setswitchinterval(5e-4)  # the sensor's reader and ROS get their turn within a frame
+    prioritised = raise_priority()
     wall_start = time.perf_counter()
     try:
         link = stack.enter_context(SerialTactileSensor(sensor, rows=pad.rows, cols=pad.cols,
@@ -225,8 +227,10 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
             if recorder is not None:
                 recorder.write(frame.values, pose.T_gs, timestamp=t)
             twist_s = loop.cycle(frame.values, pose.T_gs, t)
-            twist_s = supervisor.check(loop.features, pose.T_gs, twist_s, started - t_start,
-                                       frame_time=t, pose_time=pose.stamp_s - t_start)
+            # On the frame's clock: a frame that waited for a busy loop is late, not a silent sensor
+            # (the read's timeout above tells silence); the pose's age is taken against the frame.
+            twist_s = supervisor.check(loop.features, pose.T_gs, twist_s, t, frame_time=t,
+                                       pose_time=pose.stamp_s - t_start)
             if supervisor.outcome is not None:
                 break
             robot_obj.send_twist(body_to_spatial(pose.T_gs, twist_s))
@@ -265,6 +269,8 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
                                     status, reason, wall_start, t, scene=scene,
                                     warnings=notes, supervision=None if supervisor is None else supervisor.summary())
             result.summary.realtime = realtime_summary(realtime, dt) if realtime.sent else None
+            if result.summary.realtime is not None:
+                result.summary.realtime["raised_priority"] = prioritised
             if realtime.sent:
                 arrays = realtime.arrays()
                 n = len(result.log["t"])

@@ -13,6 +13,7 @@ Layer: mission.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -21,7 +22,21 @@ from multiprocessing import shared_memory
 
 import numpy as np
 
-__all__ = ["SharedTwinState", "serve_devices"]
+__all__ = ["SharedTwinState", "serve_devices", "raise_priority"]
+
+#: Niceness a live loop and the twin's devices ask for: ahead of batch work on the same machine.
+PRIORITY_NICE = -10
+
+
+def raise_priority() -> bool:
+    """Run this process ahead of batch work (``nice`` :data:`PRIORITY_NICE`), as a control loop
+    should; False where the system does not allow it (not root, no CAP_SYS_NICE): then it runs at
+    the usual priority."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, min(os.getpriority(os.PRIO_PROCESS, 0), PRIORITY_NICE))
+    except (OSError, AttributeError):
+        return False
+    return True
 
 
 class SharedTwinState:
@@ -115,6 +130,7 @@ def serve_devices(name: str, rows: int, cols: int, n_joints: int, rate_hz: float
     from tactile_bt.sense.hardware.emulator import DeviceEmulator
 
     sys.setswitchinterval(5e-4)
+    raise_priority()  # a sensor streams and an arm's driver publishes whatever else the host does
     state = SharedTwinState(rows, cols, n_joints, name=name)
     times: list[float] = []
     twists: list[np.ndarray] = []
