@@ -49,7 +49,7 @@ def installed(tmp_path_factory):
     (purelib / "outer.pth").write_text("\n".join(sorted(outer)) + "\n")
     bin_dir = env_dir / ("Scripts" if os.name == "nt" else "bin")
     python = bin_dir / "python"
-    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "-q", "--no-deps",
+    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "-q", "--no-deps", "--ignore-installed",
           *map(str, sorted(wheels.glob("*.whl")))], cwd=base, env=dict(os.environ))
     work = base / "elsewhere"
     work.mkdir()
