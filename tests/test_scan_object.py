@@ -22,6 +22,7 @@ from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, Front
                                         RollTo, SquareToSlope, StripeEnd, TableClearance, TableOffset)
 from tactile_bt.tree.behaviours.frontier import FrontierMap
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
+from tactile_bt.tree.blackboard import POSE
 
 REPO = Path(__file__).resolve().parents[1]
 DT = 1.0 / 250.0
@@ -248,7 +249,31 @@ def test_square_to_slope_does_not_wind_the_wrist_beyond_its_turn_limit():
     leaf.turned_rad = math.radians(-80)  # as if it had already turned 80° that way
     leaf.error_rad = math.nan
     h.tick()
-    assert leaf.error_rad == pytest.approx(math.radians(50))  # the other edge: on by 50°
+    # not the other edge, 50° on: that turn would swing a corner downhill, towards the table;
+    # it turns to the limit and holds there
+    assert leaf.error_rad == pytest.approx(math.radians(-20))
+    leaf.turned_rad = math.radians(-100)
+    h.tick()
+    assert leaf.error_rad == pytest.approx(0.0, abs=1e-9)
+    # the downhill direction drifts on, past the pad's diagonal: the edge on the other side
+    # is now the nearest, and within the limit
+    h.set_pose(pose(tilted(35, yaw_deg=50.0), (0.0, 0.0, 0.05)))
+    h.tick()
+    assert leaf.error_rad == pytest.approx(math.radians(40))
+
+
+def test_square_to_slope_never_swings_a_corner_downhill():
+    """Whatever it turned before, the turn it asks for is at most 45° plus the hysteresis: the
+    pad's lowest point passes no corner on its way to an edge."""
+    leaf = SquareToSlope(max_turn_rad=math.radians(120))
+    h = LeafHarness(leaf)
+    for yaw in np.arange(-180.0, 180.0, 7.0):
+        for turned in (-115.0, -60.0, 0.0, 60.0, 115.0):
+            leaf.turned_rad = math.radians(turned)
+            h.set_pose(pose(tilted(40, yaw_deg=yaw), (0.0, 0.0, 0.05)))
+            h.tick()
+            assert abs(leaf.error_rad) <= math.radians(55.0) + 1e-9
+            assert abs(leaf.turned_rad) <= math.radians(120.0) + 0.01
 
 
 # --------------------------------------------------------------------------------- the map
@@ -370,6 +395,93 @@ def test_planner_backs_off_uphill_when_the_pad_nears_the_table_and_blocks_that_w
     rows, cols, out = leaf.map.frontier()
     blocked = leaf.map.blocked[rows, cols].any(axis=1)
     assert np.all(out[blocked][:, 0] > 0)  # only the frontier facing +x was blocked
+
+
+# ------------------------------------------------------- recovering from the table's guard
+
+
+def sinking_scan(max_trips=0):
+    """The touched disc of the test above, 30 mm up and tilted 40° towards +x; the pad touches
+    it 5 mm from its rim at +x; in parallel, as in trees/scan_object.yaml, frontier_guidance
+    (its own table test off, to leave it to the guard) and a recovering table_clearance guard
+    (0.5 mm, 1 s)."""
+    tilt = math.radians(40)
+    leaf = FrontierGuidance(key="/scan/guidance", replan_s=0.04, table_clearance_m=0.0)
+    guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0, hit_m=0.0, max_trips=max_trips)
+    root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                        children=[leaf, guard])
+    h = LeafHarness(root, pose=pose(tilted(40), (0.015, 0.0, 0.03)))
+    h.contacts.extend(*disc(0.02, z=0.03, normal=(math.sin(tilt), 0.0, math.cos(tilt))), 2000.0, 0.0)
+    h.set(TABLE_Z_KEY, 0.0)
+    return leaf, guard, root, h
+
+
+def sink(h, x: float, z_to: float, ticks: int = 20) -> Status:
+    """Move the pad (tilted 40°; its lowest corner 25.7 mm below its centre) from where it is
+    to ``x`` (m, world) and the height ``z_to``; the status of the last tick."""
+    status = Status.RUNNING
+    T = py_trees.blackboard.Blackboard.storage[POSE]
+    for x, z in zip(np.linspace(T[0, 3], x, ticks), np.linspace(T[2, 3], z_to, ticks)):
+        h.set_pose(pose(tilted(40), (x, 0.0, z)))
+        status = h.tick(make_features())
+        if status != Status.RUNNING:
+            break
+    return status
+
+
+DROP = 0.040 * math.sin(math.radians(40))  # the lowest corner below the pad's centre (m)
+
+
+def test_a_pad_corner_near_the_table_backs_off_and_the_scan_goes_on():
+    leaf, guard, root, h = sinking_scan()
+    h.tick(make_features())
+    assert leaf.target is not None and leaf.direction[0] > 0.9  # downhill, to the rim at +x
+    # the corner sinks to 0.2 mm above the table: the guard trips, but the scan goes on
+    assert sink(h, 0.015, DROP + 0.0002) == Status.RUNNING
+    assert guard.trips == 1 and guard.status == Status.RUNNING
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is not None
+    assert leaf.ends["table"] == 1 and leaf.target is None
+    assert leaf.feedback_message.startswith("backing off")
+    assert guidance()[0] < 0  # uphill, away from the corner (sensor x = world x)
+    rows, cols, out = leaf.map.frontier()
+    blocked = leaf.map.blocked[rows, cols].any(axis=1)
+    assert blocked.any() and np.all(out[blocked][:, 0] > 0)  # the frontier towards the table only
+    # the pad backs off, up and away: the alarm ends and another frontier is chosen
+    assert sink(h, 0.005, 0.04, ticks=50) == Status.RUNNING
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is None
+    for _ in range(20):
+        assert h.tick(make_features()) == Status.RUNNING
+    assert leaf.target is not None and leaf.direction[0] < 0.9 and leaf.attempts == 2
+    assert "table" in leaf.explained()
+
+
+@pytest.mark.parametrize("case", ["stays", "hits", "again"])
+def test_the_table_guard_still_fails_the_scan_when_it_must(case):
+    leaf, guard, root, h = sinking_scan(max_trips=3)
+    h.tick(make_features())
+    if case == "stays":  # 0.2 mm above the table, and it does not get clear within 1 s
+        assert sink(h, 0.015, DROP + 0.0002) == Status.RUNNING
+        status = Status.RUNNING
+        for _ in range(int(1.2 / h.dt)):
+            status = h.tick(make_features())
+            if status != Status.RUNNING:
+                break
+        expected = "not clear after backing off 1.0 s"
+    elif case == "hits":  # through the limit onto the table at once
+        status = sink(h, 0.015, DROP - 0.0005, ticks=10)
+        expected = "the pad touches the table"
+    else:  # it comes back, the third time ends it
+        for _ in range(3):
+            status = sink(h, 0.015, DROP + 0.0002)
+            if status != Status.RUNNING:
+                break
+            assert sink(h, 0.015, DROP + 0.01) == Status.RUNNING
+        expected = "trip 3 of at most 3"
+    assert status == Status.FAILURE
+    outcome, reason = root_outcome(root)
+    assert outcome == "failure"
+    assert reason.startswith("table_clearance: the pad's corner is") and expected in reason
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is None
 
 
 def test_a_scan_that_ends_by_touch_reports_why():

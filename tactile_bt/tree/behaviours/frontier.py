@@ -15,9 +15,13 @@ stalls or jumps, the contact shrinks at an edge, the pad tilts past ``max_tilt_r
 the set-up: the pad's lowest corner coming within ``table_clearance_m`` of the table
 (``/setup/table_z_m``, see :mod:`tactile_bt.tree.behaviours.table`) while moving towards it. The
 frontier cells under the pad whose open side faces the way the pad was going are then *blocked*
-for that direction, and the next target is chosen away from it. The leaf succeeds when no
-reachable frontier is left; it knows nothing of the object's size, pose or shape beyond what
-the pad has touched.
+for that direction, and the next target is chosen away from it. A recovering ``table_clearance``
+guard's alarm (``alarm_key``: the pad's corner has come too close to the table after all) ends
+an attempt the same way, the frontier towards the corner blocked as the table's, and the pad
+backs off away from the corner. The leaf succeeds when no reachable frontier is left, and its
+message counts the ends by cause (the table, the tilt limit, an edge ...): what explains the
+frontier left open. It knows nothing of the object's size, pose or shape beyond what the pad
+has touched.
 
 Layer: tree.
 """
@@ -25,6 +29,7 @@ Layer: tree.
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 import numpy as np
 from py_trees.common import Access, Status
@@ -32,8 +37,8 @@ from scipy import ndimage
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
-from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, table_height
-from tactile_bt.tree.blackboard import write
+from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
+from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["FrontierGuidance", "FrontierMap"]
@@ -240,6 +245,10 @@ class FrontierGuidance(TactileBehaviour):
         Width of the pad's frame around the sensing area, for the corners (m).
     table_key : str
         Blackboard key of the table's height (m, world z; absent or NaN: no table).
+    alarm_key : str
+        Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a
+        recovering ``table_clearance`` guard finds it too close to the table; None or absent
+        otherwise).
     window_s : float
         An attempt ends when the contact point moves less than ``min_travel_m`` in this time
         (s; 0 = no stall test).
@@ -279,7 +288,7 @@ class FrontierGuidance(TactileBehaviour):
     uses = frozenset({"cop"})
     #: Its SUCCESS ends a scan: the mission reports its message as the reason.
     reports_success = True
-    fixed_parameters = frozenset({"name", "key", "table_key", "cell_m", "extent_m"})
+    fixed_parameters = frozenset({"name", "key", "table_key", "alarm_key", "cell_m", "extent_m"})
     parameter_bounds = {"speed_mps": POSITIVE, "cell_m": POSITIVE, "extent_m": POSITIVE,
                         "max_tilt_rad": between(0, math.pi / 2, low_open=True),
                         "tilt_margin_rad": between(0, math.pi / 2), "table_clearance_m": NON_NEGATIVE,
@@ -292,7 +301,8 @@ class FrontierGuidance(TactileBehaviour):
     def __init__(self, name: str = "frontier_guidance", key: str = "/scan/guidance", speed_mps: float = 0.02,
                  cell_m: float = 0.002, extent_m: float = 0.3, max_tilt_rad: float = math.radians(70.0),
                  tilt_margin_rad: float = math.radians(5.0), table_clearance_m: float = 0.003,
-                 corner_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY, window_s: float = 1.0,
+                 corner_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY, alarm_key: str = TABLE_ALARM_KEY,
+                 window_s: float = 1.0,
                  min_travel_m: float = 0.004, min_area_ratio: float = 0.5, max_jump_m: float = 0.01,
                  edge_turn_rad: float = math.radians(10.0), edge_radius_m: float = 0.01,
                  block_radius_m: float = 0.0, local_block_radius_m: float = 0.01, retreat_m: float = 0.005,
@@ -304,6 +314,8 @@ class FrontierGuidance(TactileBehaviour):
         self._writer.register_key(key=self.key, access=Access.WRITE)
         self._setup = self.attach_blackboard_client(name=f"{name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
+        self.alarm_key = normalise_key(alarm_key)
+        self._setup.register_key(key=self.alarm_key, access=Access.READ)
         self.cell_m = float(cell_m)
         self.extent_m = float(extent_m)
         self._end = StripeEnd(name=f"{name}/end")  # the end-of-surface test of an attempt
@@ -329,6 +341,10 @@ class FrontierGuidance(TactileBehaviour):
         self.blocks = 0
         self.candidates = 0
         self.last_end = ""
+        #: Ends of attempts by cause ("table", "tilt", "edge", "stall", "time", ...): what
+        #: explains the frontier left open.
+        self.ends: Counter = Counter()
+        self._alarmed = False  # backing off from the guard's current alarm
         self._state = "waiting for contact"
         self._reset_motion()
 
@@ -347,6 +363,10 @@ class FrontierGuidance(TactileBehaviour):
     def describe(self) -> str:
         """State, targets tried, frontier cells and blocked ends."""
         return f"{self._state}: target {self.attempts}, {self.candidates} frontier cells, {self.blocks} ends"
+
+    def explained(self) -> str:
+        """The ends of attempts by cause, most frequent first ("3 table, 2 tilt")."""
+        return ", ".join(f"{n} {cause}" for cause, n in self.ends.most_common())
 
     # -- the map -----------------------------------------------------------------------------
     def _update_map(self, point: np.ndarray) -> None:
@@ -427,6 +447,7 @@ class FrontierGuidance(TactileBehaviour):
         self._last_point: np.ndarray | None = None
         self._point: np.ndarray | None = None  # the low-passed contact point
         self._start_tilt_cos = -2.0
+        self._cause = ""
 
     def _choose(self, point: np.ndarray) -> bool:
         """Choose the next target from ``point`` (world), or start backing off from the table
@@ -493,21 +514,26 @@ class FrontierGuidance(TactileBehaviour):
                 # lumpy object; go on
                 self._end.initialise()
                 return "", False
+            self._cause = self._end.cause
             return self._end.feedback_message, self._end.cause in _EDGE_CAUSES
         clearance, _ = self._clearance()
         if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:
+            self._cause = "table"
             return f"the pad's corner {clearance * 1e3:.1f} mm above the table", False
         if self.now > self._deadline:
+            self._cause = "time"
             return "target not reached in time", False
         return "", False
 
-    def _block(self, point: np.ndarray, why: str, at_edge: bool = False) -> None:
-        """Block the frontier the attempt was heading for, in its direction."""
+    def _block(self, point: np.ndarray, why: str, at_edge: bool = False, cause: str = "",
+               direction: np.ndarray | None = None) -> None:
+        """Block the frontier the attempt was heading for, in its direction (or ``direction``,
+        world xy), and count the end under ``cause``."""
         if at_edge:  # the surface ends at an edge under the pad: as far as the pad reaches
             radius, centre = self.block_radius_m or self.pad.half_width_m, self.pose[:3, 3]
         else:  # too steep, the table, stuck: only this part of the frontier is out of reach
             radius, centre = self.local_block_radius_m, point
-        d = self.direction if np.any(self.direction) else self._target_out
+        d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
         self.map.block(centre[:2], radius, d)
         self.map.block(point[:2], 2 * self.cell_m, d)
         if self.target is not None:
@@ -521,6 +547,7 @@ class FrontierGuidance(TactileBehaviour):
             on_way |= (rows == self.target[0]) & (cols == self.target[1])
             self.map.block_cells(rows[on_way], cols[on_way], out[on_way])
         self.blocks += 1
+        self.ends[cause or why] += 1
         self.last_end = why
         self._avoid = np.array(d, dtype=float)
         self.target = None
@@ -546,6 +573,25 @@ class FrontierGuidance(TactileBehaviour):
         self._state = f"backing off ({why})"
         return True
 
+    def _table_alarm(self, point: np.ndarray) -> bool:
+        """React to a new alarm of the table-clearance guard (the pad's lowest corner, world, at
+        ``alarm_key``): end the attempt, block the frontier towards the corner as the table's
+        and back off away from it. True when it has just started backing off."""
+        corner = read_or(self.alarm_key)
+        if corner is None:
+            self._alarmed = False
+            return False
+        if self._alarmed:
+            return False
+        self._alarmed = True
+        low = np.asarray(corner, dtype=float)[:2] - self.pose[:2, 3]
+        low = low / max(float(np.linalg.norm(low)), 1e-9)
+        why = "the table-clearance guard tripped"
+        if self.map is not None:
+            self._block(point, why, cause="table", direction=low)
+        self._start_retreat(point, why, -low)
+        return True
+
     # -- the life cycle ----------------------------------------------------------------------
     def initialise(self) -> None:
         self.table_z_m = table_height(self._setup, self.table_key)
@@ -557,19 +603,21 @@ class FrontierGuidance(TactileBehaviour):
         point = self._contact_point()
         if point is None:  # no contact: hold still, the guards decide
             if self.target is not None and self._last_point is not None:
-                self._block(self._last_point, "contact lost")  # that way is out of reach from here
+                self._block(self._last_point, "contact lost", cause="contact lost")  # that way is out of reach from here
             self._retreat = None
             self._guide(None)
             self._state = "waiting for contact"
             return Status.RUNNING
         self._last_point = point
         now = self.now
+        if self._table_alarm(point):
+            self._next_plan = now
         if self._retreat is not None and self._retreating(point):
             return Status.RUNNING
         if self.target is not None:
             why, at_edge = self._attempt_end(point)
             if why:
-                self._block(point, why, at_edge)
+                self._block(point, why, at_edge, self._cause)
                 self._start_retreat(point, why)
                 self._next_plan = now
                 if self._retreating(point):
@@ -588,8 +636,9 @@ class FrontierGuidance(TactileBehaviour):
             if self.target is None:
                 if not self._choose(point):
                     self._guide(None)
+                    explained = f": {self.explained()}" if self.ends else ""
                     self.feedback_message = (f"no reachable frontier left ({self.attempts} targets, "
-                                             f"{self.blocks} ends of the surface)")
+                                             f"{self.blocks} ends of the surface{explained})")
                     return Status.SUCCESS
                 if self._retreat is not None and self._retreating(point):
                     return Status.RUNNING

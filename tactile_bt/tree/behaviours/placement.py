@@ -244,9 +244,13 @@ class SquareToSlope(TactileBehaviour):
     pressure ``(x, y)``: it adds ``vx = ωz·y, vy = −ωz·x``), so that a contact away from the
     centre keeps its place on the pad instead of being swept towards the border.
 
-    Of the four edges it turns to the nearest one, unless that would take the pad more than
+    Of the four edges it turns to the nearest one, never more than 45° (plus a hysteresis of
+    10° for the edge it turned to before) away: a larger turn would swing a corner through the
+    downhill direction, down towards the table. It never turns the pad more than
     ``max_turn_rad`` from where it was when the leaf started (it counts its own turns): going
-    round an object, the pad would otherwise wind up its wrist joint to the limit.
+    round an object, the pad would otherwise wind up its wrist joint to the limit. At that
+    limit it holds, a corner drifting downhill, until the downhill direction has passed the
+    pad's diagonal and the edge on the other side, back within the limit, is the nearest one.
 
     Parameters
     ----------
@@ -295,11 +299,16 @@ class SquareToSlope(TactileBehaviour):
             switch = last == last and abs(e - last) > quarter / 2
             return abs(e) + (_HYSTERESIS_RAD if switch else 0.0)
 
-        choices = sorted((nearest + k * quarter for k in (-2, -1, 0, 1, 2)), key=cost)
-        for e in choices:
-            if abs(self.turned_rad + e) <= self.max_turn_rad:
-                return e
-        return min(choices, key=lambda e: abs(self.turned_rad + e))
+        # the edges at most 45° (55° for the one turned to before) away: turning to another
+        # edge would swing a corner through the downhill direction, down towards the table
+        near = [e for e in (nearest + k * quarter for k in (-1, 0, 1)) if abs(e) <= quarter / 2 + _HYSTERESIS_RAD]
+        e = min(near, key=cost)
+        limit = self.max_turn_rad
+        if abs(self.turned_rad + e) <= limit:
+            return e
+        # at the turn limit: hold there, a corner drifting downhill, until the downhill
+        # direction has passed the diagonal and the edge on the other side is the nearest
+        return math.copysign(limit, self.turned_rad + e) - self.turned_rad
 
     def update(self) -> Status:
         self.error_rad = e = self.error(self.pose)

@@ -8,7 +8,9 @@ below is then off.
 
 :func:`pad_clearance` is the height of the pad's lowest corner above the table, through the
 forward kinematics ``T_gs``; the ``table_clearance`` guard fails the branch when it drops below
-a limit, and the frontier planner (:mod:`tactile_bt.tree.behaviours.frontier`) turns back before
+a limit, or, with ``recover_s``, raises the alarm :data:`TABLE_ALARM_KEY` on which the frontier
+planner (:mod:`tactile_bt.tree.behaviours.frontier`) backs off, and fails only when the pad does
+not get clear in time, trips too often or touches the table. The planner turns back before
 that. ``record_contacts: {table_margin_m: ...}`` leaves out the contacts at the table's height.
 
 Layer: tree.
@@ -26,10 +28,13 @@ from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
 
-__all__ = ["TABLE_Z_KEY", "TableClearance", "pad_clearance", "lowest_corner", "table_height", "write_table_height"]
+__all__ = ["TABLE_ALARM_KEY", "TABLE_Z_KEY", "TableClearance", "pad_clearance", "lowest_corner", "table_height", "write_table_height"]
 
 #: Blackboard key of the table's height (m, world z of its surface; NaN or absent: no table).
 TABLE_Z_KEY = "/setup/table_z_m"
+#: Blackboard key of the table-clearance alarm: the world position (m) of the pad's lowest
+#: corner while it is too close to the table, None otherwise (written by a recovering guard).
+TABLE_ALARM_KEY = "/scan/table_alarm"
 
 
 def lowest_corner(pose: np.ndarray, pad: PadGeometry, margin_m: float = 0.0) -> np.ndarray:
@@ -69,13 +74,20 @@ def table_height(client, key: str = TABLE_Z_KEY) -> float:
 
 
 class TableClearance(TactileBehaviour):
-    """Guard: RUNNING while the pad's lowest corner stays at least ``min_clearance_m`` above the
-    table of the set-up (``table_key``, read when the guard starts); FAILURE below it, with the
-    clearance and the corner in the message. RUNNING (and never failing) when no table is known.
+    """Guard on the pad's lowest corner above the table of the set-up (``table_key``, read when
+    the guard starts). RUNNING (and never failing) when no table is known.
 
     The corners are those of the sensing area grown by ``margin_m`` (the pad's frame), carried
     to the world through ``T_gs``: the forward kinematics, not a contact, so the guard trips
     before the pad's border touches the table.
+
+    With ``recover_s = 0`` it fails as soon as the corner comes below ``min_clearance_m``, with
+    the clearance and the corner in the message. With ``recover_s > 0`` a trip is recoverable:
+    while the corner is below the limit the guard writes the corner (world, m) to
+    ``alarm_key`` (None otherwise) and stays RUNNING, and the tree backs off
+    (``frontier_guidance`` does). It fails when the corner stays below the limit longer than
+    ``recover_s``, when it comes below ``hit_m`` (the pad touches the table), or at the
+    ``max_trips``-th trip.
 
     Parameters
     ----------
@@ -84,30 +96,55 @@ class TableClearance(TactileBehaviour):
         corner to press into a soft table cover).
     margin_m : float
         Width of the pad's frame around the sensing area (m).
+    recover_s : float
+        Time the corner may stay below ``min_clearance_m`` while the tree backs off (s; 0: no
+        recovery, the guard fails at once).
+    hit_m : float
+        With recovery, the guard fails at once below this height of the corner (m; at most
+        ``min_clearance_m``).
+    max_trips : int
+        With recovery, the guard fails at this trip (0: any number).
     table_key : str
         Blackboard key of the table's height (m, world z).
+    alarm_key : str
+        Blackboard key of the alarm (see above).
     """
 
-    fixed_parameters = frozenset({"name", "table_key"})
-    parameter_bounds = {"margin_m": NON_NEGATIVE}
+    fixed_parameters = frozenset({"name", "table_key", "alarm_key"})
+    parameter_bounds = {"margin_m": NON_NEGATIVE, "recover_s": NON_NEGATIVE, "max_trips": NON_NEGATIVE}
 
     def __init__(self, name: str = "table_clearance", min_clearance_m: float = 0.001, margin_m: float = 0.0,
-                 table_key: str = TABLE_Z_KEY) -> None:
+                 recover_s: float = 0.0, hit_m: float = 0.0, max_trips: int = 0, table_key: str = TABLE_Z_KEY,
+                 alarm_key: str = TABLE_ALARM_KEY) -> None:
         super().__init__(name)
         self.set_parameter("min_clearance_m", min_clearance_m)
         self.set_parameter("margin_m", margin_m)
+        self.set_parameter("recover_s", recover_s)
+        self.set_parameter("hit_m", hit_m)
+        self.set_parameter("max_trips", max_trips)
         self.table_key = normalise_key(table_key)
+        self.alarm_key = normalise_key(alarm_key)
         self._setup = self.attach_blackboard_client(name=f"{name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
+        self._setup.register_key(key=self.alarm_key, access=Access.WRITE)
         self.table_z_m = math.nan
         self.clearance_m = math.inf
+        #: Trips since the guard started, and the mission time (s) of the current one (None: clear).
+        self.trips = 0
+        self._tripped_at: float | None = None
 
     def set_parameter(self, name: str, value) -> None:
-        if name == "min_clearance_m" and not math.isfinite(value):
-            raise ValueError(f"{self.name}: min_clearance_m must be finite, got {value}")
-        if name == "margin_m" and not value >= 0:
-            raise ValueError(f"{self.name}: margin_m must not be negative, got {value}")
-        super().set_parameter(name, float(value) if name in ("min_clearance_m", "margin_m") else value)
+        if name in ("min_clearance_m", "hit_m") and not math.isfinite(value):
+            raise ValueError(f"{self.name}: {name} must be finite, got {value}")
+        if name in ("margin_m", "recover_s", "max_trips") and not value >= 0:
+            raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
+        if name == "max_trips":
+            if value != int(value):
+                raise ValueError(f"{self.name}: max_trips must be a whole number, got {value}")
+            value = int(value)
+        elif name in ("min_clearance_m", "margin_m", "recover_s", "hit_m"):
+            value = float(value)
+        super().set_parameter(name, value)
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -115,6 +152,16 @@ class TableClearance(TactileBehaviour):
 
     def initialise(self) -> None:
         self.table_z_m = table_height(self._setup, self.table_key)
+        self.trips = 0
+        self._tripped_at = None
+        self._setup.set(self.alarm_key, None)
+
+    def terminate(self, new_status: Status) -> None:
+        self._setup.set(self.alarm_key, None)
+
+    def _where(self, corner: np.ndarray) -> str:
+        return (f"the pad's corner is {self.clearance_m * 1e3:.1f} mm above the table "
+                f"(limit {self.min_clearance_m * 1e3:.1f} mm) at x {corner[0] * 1e3:.0f}, y {corner[1] * 1e3:.0f} mm")
 
     def update(self) -> Status:
         if not math.isfinite(self.table_z_m):
@@ -122,19 +169,37 @@ class TableClearance(TactileBehaviour):
             return Status.RUNNING
         corner = lowest_corner(self.pose, self.pad, self.margin_m)
         self.clearance_m = clearance = float(corner[2] - self.table_z_m)
-        if clearance < self.min_clearance_m:
-            self.feedback_message = (f"the pad's corner is {clearance * 1e3:.1f} mm above the table "
-                                     f"(limit {self.min_clearance_m * 1e3:.1f} mm) at x {corner[0] * 1e3:.0f}, "
-                                     f"y {corner[1] * 1e3:.0f} mm")
+        if clearance >= self.min_clearance_m:
+            self._tripped_at = None
+            self._setup.set(self.alarm_key, None)
+            self._feedback = None
+            return Status.RUNNING
+        if self.recover_s <= 0:
+            self.feedback_message = self._where(corner)
             return Status.FAILURE
-        self._feedback = None
+        if self._tripped_at is None:
+            self._tripped_at = self.now
+            self.trips += 1
+        below_s = self.now - self._tripped_at
+        if clearance < min(self.hit_m, self.min_clearance_m):
+            self.feedback_message = f"{self._where(corner)}: the pad touches the table (trip {self.trips})"
+            return Status.FAILURE
+        if self.max_trips and self.trips >= self.max_trips:
+            self.feedback_message = f"{self._where(corner)}: trip {self.trips} of at most {self.max_trips}"
+            return Status.FAILURE
+        if below_s > self.recover_s:
+            self.feedback_message = f"{self._where(corner)}: not clear after backing off {self.recover_s:.1f} s"
+            return Status.FAILURE
+        self._setup.set(self.alarm_key, corner.copy())
+        self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
 
     def describe(self) -> str:
-        """The clearance of the pad's lowest corner at the last tick."""
+        """The clearance of the pad's lowest corner at the last tick, and the trips."""
         if not math.isfinite(self.table_z_m):
             return "no table in the set-up"
-        return f"clearance {self.clearance_m * 1e3:.1f} mm"
+        trips = f", {self.trips} trips" if self.recover_s > 0 else ""
+        return f"clearance {self.clearance_m * 1e3:.1f} mm{trips}"
 
 
 def write_table_height(table_z_m: float, key: str = TABLE_Z_KEY) -> None:
