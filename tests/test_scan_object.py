@@ -421,8 +421,8 @@ def sink(h, x: float, z_to: float, ticks: int = 20) -> Status:
     to ``x`` (m, world) and the height ``z_to``; the status of the last tick."""
     status = Status.RUNNING
     T = py_trees.blackboard.Blackboard.storage[POSE]
-    for x, z in zip(np.linspace(T[0, 3], x, ticks), np.linspace(T[2, 3], z_to, ticks)):
-        h.set_pose(pose(tilted(40), (x, 0.0, z)))
+    for xi, zi in zip(np.linspace(T[0, 3], x, ticks), np.linspace(T[2, 3], z_to, ticks)):
+        h.set_pose(pose(tilted(40), (xi, 0.0, zi)))
         status = h.tick(make_features())
         if status != Status.RUNNING:
             break
