@@ -3,6 +3,7 @@
     python docs/check_figures.py            # the short checks (the cable mission, ~10 s); CI runs these
     python docs/check_figures.py --all      # every table below (~25 min on 2 cores)
     python docs/check_figures.py --all --update   # ... and write the fresh rows into README.md
+    python docs/check_figures.py --only scans     # one check (its name as the list below gives it)
 
 Each check runs the command the README quotes, formats its figures as the README's table rows,
 and compares them, row by row (matched by the first cell and the table's header), number by
@@ -244,9 +245,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--all", action="store_true", help="every check, not only the short ones")
     parser.add_argument("--update", action="store_true", help="write the fresh rows into README.md")
+    parser.add_argument("--only", action="append", default=[], metavar="NAME", choices=[c.name for c in CHECKS],
+                        help="run this check alone (repeatable): " + ", ".join(c.name for c in CHECKS))
     args = parser.parse_args(argv)
     readme = README.read_text(encoding="utf-8")
-    checks = [c for c in CHECKS if args.all or c.quick]
+    checks = [c for c in CHECKS if (c.name in args.only) if args.only] or \
+        [c for c in CHECKS if (args.all or c.quick) and not args.only]
     messages, fresh_lines = run_checks(checks, readme)
     for message in messages:
         print(f"drift: {message}")
