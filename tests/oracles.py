@@ -1,4 +1,4 @@
-"""Reference implementations the compiled kernels are checked against (``tests/test_kernels.py``).
+"""Reference implementations the compiled kernels are checked against (``tests/perception/test_kernels.py``).
 
 These are the numpy/scipy versions the package used before its hot paths were compiled, kept
 verbatim: feature extraction (``scipy.ndimage.label`` with 8-connectivity, the moments as one

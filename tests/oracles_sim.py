@@ -3,7 +3,7 @@
 ``OracleSensorModel`` is the numpy pad model of ``tactile_bt.sim.pad.SensorModel`` before
 ``tactile_bt.sim.kernels``; ``python_arm`` makes a compliant arm that takes every step with the
 Python solvers (``tactile_bt.robot.equilibrium``, ``tactile_bt.robot.resolved_rate``), the
-oracle of ``tactile_bt.robot.kernels``.  ``tests/test_kernels.py`` compares the two.
+oracle of ``tactile_bt.robot.kernels``.  ``tests/perception/test_kernels.py`` compares the two.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ Feature error
 ``Δx, Δy`` in metres in the sensor frame, ``Δp`` in Pa and ``Δα`` in rad taken modulo π in
 (−π/2, π/2].
 
-Signs of J⁻¹ for our frames (derived, and proven by ``tests/test_control.py``)
+Signs of J⁻¹ for our frames (derived, and proven by ``tests/control/test_control.py``)
 ---------------------------------------------------------------------------
 The object is fixed and the sensor moves with body twist ``[v; ω]`` (sensor frame, +z towards
 the object):

@@ -110,7 +110,7 @@ def exp_twist(twist: np.ndarray, dt: float) -> np.ndarray:
     -----
     This runs once per control cycle, so it is the closed-form Rodrigues formula on Python
     floats rather than ``Rotation.from_rotvec(...).as_matrix()`` (about 10x the cost for one
-    vector); ``tests/test_spatial.py`` checks both agree.
+    vector); ``tests/control/test_spatial.py`` checks both agree.
     """
     vx, vy, vz, wx, wy, wz = (float(c) * dt for c in twist)
     theta2 = wx * wx + wy * wy + wz * wz

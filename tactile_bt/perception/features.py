@@ -25,7 +25,7 @@ blob gives ~0; a straight 2-tactel-wide, 3-tactel-long bar already gives 0.45; a
 
 Speed: steps 1-3 and the moments of step 4 are one compiled kernel, a few passes over the image
 (:func:`tactile_bt.perception.kernels.largest_region`, numba, cached on disk); a 16x16 frame
-costs a few microseconds, most of them in building the result. ``tests/test_kernels.py`` checks
+costs a few microseconds, most of them in building the result. ``tests/perception/test_kernels.py`` checks
 it against the ``scipy.ndimage.label`` + moment-basis implementation it replaced.
 
 Layer: perception.

@@ -12,7 +12,7 @@ where numpy would spend most of its time in per-call overhead on 256 values:
 They are compiled on first use and cached on disk (``cache=True``: a fresh install pays the
 compile once). Arguments must have the types the callers in :mod:`tactile_bt.perception.features`
 give them (C-contiguous, writable float64 / bool arrays, Python floats), so that each kernel is
-compiled for one signature only. ``tests/test_kernels.py`` checks them against the numpy and
+compiled for one signature only. ``tests/perception/test_kernels.py`` checks them against the numpy and
 scipy implementations they replace (``tests/oracles.py``).
 
 Layer: perception.

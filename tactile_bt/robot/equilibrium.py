@@ -40,7 +40,7 @@ points of their stiffness, the active set of the current pose) makes the iterati
 semismooth Newton method and spares the finite differences: 1-2 iterations per step.
 
 Tested from 1e2 to 1e7 N/m, from a warm start and from an equilibrium posture 10-50 mm inside a
-rigid table (``tests/test_arm.py``).
+rigid table (``tests/robot/test_arm.py``).
 
 Layer: robot.
 """

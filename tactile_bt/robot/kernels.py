@@ -7,7 +7,7 @@ its own kernel).  They compute what :mod:`tactile_bt.robot.kinematics`,
 :mod:`tactile_bt.robot.equilibrium` describe, with the same formulas, damping schedule and
 safeguards, written out for the 7-joint arm.  Those Python implementations stay: they serve any
 other contact model, and they take over the rare steps the kernels hand back (below).  The tests
-check the kernels against them on random inputs (``tests/test_kernels.py``).
+check the kernels against them on random inputs (``tests/perception/test_kernels.py``).
 
 The fast path and what it hands back
 ------------------------------------

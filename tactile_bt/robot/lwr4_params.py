@@ -26,7 +26,7 @@ Classic (distal) DH table of the LWR 4::
   (``lwr_description/model/kuka_lwr.urdf.xacro``: 0.11 + 0.2005 m to the shoulder, 0.2 + 0.2 m and
   0.2 + 0.19 m for the two long links, 0.078 m to the flange; joint 2 about ``-y``, joint 4 about
   ``+y``, joint 6 about ``-y``), which this table reproduces exactly at ``q = 0`` (the arm
-  stretched straight up; ``tests/test_arm.py`` checks it).  KUKA's data sheet rounds the
+  stretched straight up; ``tests/robot/test_arm.py`` checks it).  KUKA's data sheet rounds the
   shoulder height to 310 mm.
 
 The classic convention is used, not the modified (Craig) one: both give the same flange pose,

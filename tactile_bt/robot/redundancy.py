@@ -33,7 +33,7 @@ projection and the cap (the swivel turns it away at up to ``speed_max``); mid-ra
 the pull is 0.03 rad/s, a slow drift to the middle of the joint ranges.
 
 The wrist term has little leverage, and needs little: near ``q_6 = 0`` the self-motion is mostly
-joints 5 and 7 turning against each other, which leaves ``q_6`` alone (``tests/test_redundancy.py``
+joints 5 and 7 turning against each other, which leaves ``q_6`` alone (``tests/robot/test_redundancy.py``
 measures about 0.5 deg/s at ``q_6 = 14 deg``), and the 7-joint Jacobian keeps its rank there
 (smallest singular value 0.127 m/rad at ``q_6 = 0``, 0.142 at 20 deg, near the ready posture).
 ``q_6 = 0`` is singular only for the six other joints, when joint 5 or 7 is held on a limit; the

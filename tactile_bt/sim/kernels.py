@@ -6,7 +6,7 @@ numba ``nopython`` versions of :class:`tactile_bt.sim.pad.SensorModel`'s hot pat
 objects' signed distances and ray depths (:mod:`tactile_bt.sim.objects`,
 :mod:`tactile_bt.sim.shapes`, :mod:`tactile_bt.sim.mesh_object`) written out per shape: the same
 formulas, evaluated point by point instead of as numpy array operations.  ``tests/oracles_sim.py``
-keeps the numpy implementation of the pad they replaced, and ``tests/test_kernels.py`` checks the
+keeps the numpy implementation of the pad they replaced, and ``tests/perception/test_kernels.py`` checks the
 two against each other (and every shape against its numpy ``depth`` and ``sdf``).
 
 :class:`tactile_bt.sim.pad.SensorModel` calls three kernels: :func:`pad_contact` (the forces,

@@ -21,7 +21,7 @@ defaults for all but the signed distance and the bounds. A new shape is one modu
 ``tactile_bt/sim/shapes/`` (every module of that package is imported on the first look-up), in an
 installed package that names it in the entry-point group ``tactile_bt.shapes`` (loaded on the
 first look-up too), or in any module imported before the scene is loaded.
-``tests/test_shape_conformance.py`` checks every registered shape.
+``tests/sim/test_shape_conformance.py`` checks every registered shape.
 
 Layer: sim.
 """

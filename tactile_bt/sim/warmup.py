@@ -15,7 +15,7 @@ first), until all are built; whatever one process builds, the other loads from t
 
 Nothing changes in the compiled code: each function is compiled for the same argument types as
 a mission calls it with, and the cache key is the same either way
-(``tests/test_kernel_build.py`` checks that a mission compiles no other version).
+(``tests/sim/test_kernel_build.py`` checks that a mission compiles no other version).
 
 Layer: sim.
 """

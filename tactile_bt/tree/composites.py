@@ -11,7 +11,7 @@ calls on the children in the same order, same policies, same status and ``curren
 without the formatting, and have a direct tick without generators
 (:mod:`tactile_bt.tree.ticking`); with py_trees' debug log switched on they run py_trees' own
 ``tick``. Each one's logic is written once, as a walk (:meth:`_Walked._walk`) that names the
-children to tick in turn and sees their statuses after each. ``tests/test_composites.py`` checks
+children to tick in turn and sees their statuses after each. ``tests/tree/test_composites.py`` checks
 them against py_trees' classes on random trees.
 
 Layer: tree.

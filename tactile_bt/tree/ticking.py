@@ -11,7 +11,7 @@ the same order with the same effects as draining their ``tick()``, children tick
 :func:`tick_node`. Their ``tick()`` stays a generator (for visitors, ``tick_once`` and py_trees'
 debug log, which it still writes when switched on). :func:`tick_node` falls back to draining
 ``tick()`` for any other node, so trees may mix in py_trees' own behaviours.
-``tests/test_composites.py`` checks both entries against py_trees' classes on random trees.
+``tests/tree/test_composites.py`` checks both entries against py_trees' classes on random trees.
 
 Layer: tree.
 """

@@ -1,0 +1,611 @@
+"""Exploration by touch of an unknown object on a table: the table guards (the pad's lowest corner
+through the forward kinematics, table contacts left out of the cloud), the contact placement
+that keeps the pad's border off the table, the frontier planner and the mission's set-up keys,
+on scripted poses and frames (tactile_bt.testing)."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import py_trees
+import pytest
+from numpy.testing import assert_allclose
+from py_trees.common import Status
+from scipy.spatial.transform import Rotation
+
+from tactile_bt.control.spatial import make_pose
+from tactile_bt.errors import BlackboardReferenceError
+from tactile_bt.mission.loop import root_outcome, success_reason
+from tactile_bt.sense.geometry import PadGeometry
+from tactile_bt.testing import LeafHarness, contact_frame, make_features
+from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
+                                        RollTo, SquareToSlope, StripeEnd, TableClearance, TableOffset)
+from tactile_bt.tree.behaviours.frontier import FrontierMap
+from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
+from tactile_bt.tree.blackboard import POSE
+
+REPO = Path(__file__).resolve().parents[2]
+DT = 1.0 / 250.0
+DOWN = Rotation.from_euler("x", 180, degrees=True)  # pad facing down: x_s = x_g, y_s = -y_g
+PAD = PadGeometry()  # 16 x 16 tactels at 5 mm: 80 mm square
+
+
+def tilted(deg: float, about: str = "y", yaw_deg: float = 0.0) -> Rotation:
+    """The pad facing down, turned ``yaw_deg`` about its normal, then tilted ``deg`` about the
+    world axis ``about``."""
+    return Rotation.from_euler(about, deg, degrees=True) * DOWN * Rotation.from_euler("z", yaw_deg, degrees=True)
+
+
+def pose(rotation: Rotation, position) -> np.ndarray:
+    return make_pose(rotation, position)
+
+
+# ------------------------------------------------------------------------- the pad's corners
+
+
+def test_lowest_corner_of_a_level_and_a_tilted_pad():
+    level = pose(DOWN, (0.1, 0.2, 0.05))
+    assert pad_clearance(level, PAD, 0.0) == pytest.approx(0.05)
+    assert pad_clearance(level, PAD, 0.01) == pytest.approx(0.04)
+    assert pad_clearance(level, PAD, math.nan) == math.inf  # no table known
+    # tilted 30° about world y: the edge at x = +40 mm goes down by 40 mm * sin 30°
+    t = pose(tilted(30), (0.0, 0.0, 0.05))
+    assert pad_clearance(t, PAD, 0.0) == pytest.approx(0.05 - 0.040 * 0.5)
+    assert lowest_corner(t, PAD)[0] == pytest.approx(0.040 * math.cos(math.radians(30)))
+    # a frame 2 mm wide around the sensing area lowers it by 2 mm * sin 30°
+    assert pad_clearance(t, PAD, 0.0, margin_m=0.002) == pytest.approx(0.05 - 0.042 * 0.5)
+    # turned 45° about its normal a corner points downhill: half the diagonal
+    c = pose(tilted(30, yaw_deg=45), (0.0, 0.0, 0.05))
+    assert pad_clearance(c, PAD, 0.0) == pytest.approx(0.05 - 0.040 * math.sqrt(2) * 0.5)
+
+
+@pytest.mark.parametrize("height, status", [(0.030, Status.RUNNING), (0.021, Status.RUNNING),
+                                            (0.0195, Status.FAILURE), (0.010, Status.FAILURE)])
+def test_table_clearance_guard_on_the_lowest_corner(height, status):
+    # tilted 30°: the lowest corner lies 20 mm below the pad centre; the limit is 1 mm
+    h = LeafHarness(TableClearance(min_clearance_m=0.001), pose=pose(tilted(30), (0.0, 0.0, height)))
+    h.set(TABLE_Z_KEY, 0.0)
+    assert h.tick(frame=contact_frame()) == status
+    if status == Status.FAILURE:
+        assert "above the table" in h.behaviour.feedback_message
+        assert h.behaviour.clearance_m == pytest.approx(height - 0.020)
+
+
+def test_table_clearance_follows_the_pad_as_it_tilts_and_needs_no_contact():
+    h = LeafHarness(TableClearance(min_clearance_m=0.002), pose=pose(DOWN, (0.0, 0.0, 0.03)))
+    h.set(TABLE_Z_KEY, 0.005)
+    ticks = 0
+    for deg in np.arange(0.0, 60.0, 1.0):
+        h.set_pose(pose(tilted(deg, about="x"), (0.0, 0.0, 0.03)))
+        ticks += 1
+        if h.tick(make_features(in_contact=False)) == Status.FAILURE:
+            break
+    # fails at the first tilt whose edge (40 mm) comes within 2 mm of the table 5 mm up
+    expected = math.degrees(math.asin((0.03 - 0.005 - 0.002) / 0.040))
+    assert ticks - 1 == math.ceil(expected)
+
+
+@pytest.mark.parametrize("value", [None, math.nan])
+def test_table_clearance_without_a_known_table_never_fails(value):
+    h = LeafHarness(TableClearance(), pose=pose(tilted(80), (0.0, 0.0, 0.0)))
+    if value is not None:
+        h.set(TABLE_Z_KEY, value)
+    assert h.tick(frame=contact_frame()) == Status.RUNNING
+    assert h.behaviour.feedback_message == "no table in the set-up"
+
+
+def test_a_table_height_that_is_not_a_number_is_an_error():
+    h = LeafHarness(TableClearance(), pose=pose(DOWN, (0.0, 0.0, 0.05)))
+    h.set(TABLE_Z_KEY, "high")
+    with pytest.raises(BlackboardReferenceError, match="table's height"):
+        h.tick()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("value", ["abc", "inf", "true", "[0, 1]"])
+def test_a_bad_table_height_on_the_command_line_is_one_error_line_before_the_run(tmp_path, value):
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "tactile_bt.cli", "run", "trees/scan_object.yaml", "--scene",
+                          "sim/object.yaml", "--blackboard", f"/setup/table_z_m={value}", "--out", str(out)],
+                         capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert run.returncode != 0
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "/setup/table_z_m" in lines[0]
+    assert "Traceback" not in run.stderr
+    assert not (out / "report.json").exists()  # nothing ran
+
+
+# ------------------------------------------------------------------ no table contacts recorded
+
+
+@pytest.mark.parametrize("point", ["cop", "region"])
+@pytest.mark.parametrize("z, kept", [(0.0010, False), (0.0014, False), (0.0016, True), (0.03, True)])
+def test_record_contacts_leaves_out_contacts_at_the_table(point, z, kept):
+    """The pad facing down touches something at height z (scripted frames); with the table at
+    0 and a margin of 1.5 mm, contacts below 1.5 mm are the table's."""
+    h = LeafHarness(RecordContacts(point=point, table_margin_m=0.0015), pose=pose(DOWN, (0.01, 0.02, z)))
+    h.set(TABLE_Z_KEY, 0.0)
+    h.tick(frame=contact_frame(force_n=2.0))
+    assert (len(h.contacts) > 0) == kept
+    if kept:
+        assert np.all(h.contacts.points[:, 2] > 0.0015)
+
+
+def test_record_contacts_keeps_everything_without_a_table_or_a_margin():
+    for margin, table in ((0.0015, None), (0.0, 0.0)):
+        h = LeafHarness(RecordContacts(point="cop", table_margin_m=margin), pose=pose(DOWN, (0.0, 0.0, 0.0005)))
+        if table is not None:
+            h.set(TABLE_Z_KEY, table)
+        h.tick(frame=contact_frame())
+        assert len(h.contacts) == 1
+        py_trees.blackboard.Blackboard.clear()
+
+
+def test_record_region_drops_the_part_of_an_imprint_at_the_table():
+    # tilted 30° about world y: the imprint's samples run from 20 mm below to 20 mm above the
+    # pad centre, which lies 15 mm above the table
+    h = LeafHarness(RecordContacts(point="region", table_margin_m=0.0015), pose=pose(tilted(30), (0.0, 0.0, 0.015)))
+    h.set(TABLE_Z_KEY, 0.0)
+    full = np.full((16, 16), 0.05)  # the whole pad pressed evenly
+    h.tick(frame=full)
+    z = h.contacts.points[:, 2]
+    assert len(z) > 100 and z.min() > 0.0015
+    assert z.max() > 0.03
+
+
+# ----------------------------------------------------------------------- placing the contact
+
+
+def offset_harness(height: float, tilt_deg: float, **kw) -> LeafHarness:
+    h = LeafHarness(TableOffset(**kw), pose=pose(tilted(tilt_deg), (0.0, 0.0, height)))
+    h.set(TABLE_Z_KEY, 0.0)
+    return h
+
+
+def test_table_offset_moves_the_contact_downhill_just_enough():
+    # tilted 40° about world y: downhill is world +x, sensor +x (x_s = x_g when facing down)
+    h = offset_harness(0.025, 40.0, clearance_m=0.006, max_offset_m=0.035, rate_mps=0.04, smoothing_s=0.1)
+    for _ in range(1000):  # 4 s: 40 time constants of the low-pass filter
+        h.tick(frame=contact_frame())
+    target = np.asarray(py_trees.blackboard.Blackboard.storage["/scan/cop_target"])
+    reach = (0.025 - 0.006) / math.sin(math.radians(40))  # of the border downhill of the contact
+    assert_allclose(target, [0.040 - reach, 0.0], atol=1e-9)
+    # with the contact there, the lowest corner is clearance_m above the table
+    sin = math.sin(math.radians(40))
+    assert 0.025 - (0.040 - target[0]) * sin == pytest.approx(0.006)
+
+
+def test_table_offset_is_bounded_rate_limited_and_slides_the_pad_the_other_way():
+    h = offset_harness(0.010, 60.0, clearance_m=0.006, max_offset_m=0.03, rate_mps=0.02)
+    h.tick(frame=contact_frame())
+    target = np.asarray(py_trees.blackboard.Blackboard.storage["/scan/cop_target"])
+    assert_allclose(target, [0.02 * DT, 0.0], atol=1e-12)  # one cycle at 20 mm/s
+    # the pad slides the opposite way at the same speed, so the contact keeps its place
+    assert_allclose(h.twist_of(h.behaviour)[:2], [-0.02, 0.0], atol=1e-9)
+    for _ in range(2000):
+        h.tick(frame=contact_frame())
+    target = np.asarray(py_trees.blackboard.Blackboard.storage["/scan/cop_target"])
+    assert_allclose(target, [0.03, 0.0], atol=1e-9)  # at most max_offset_m
+    assert_allclose(h.twist_of(h.behaviour), 0.0, atol=1e-12)  # settled: no more sliding
+
+
+@pytest.mark.parametrize("height, tilt_deg, table", [(0.05, 40.0, 0.0), (0.02, 0.0, 0.0), (0.02, 40.0, None)])
+def test_table_offset_stays_centred_when_the_table_is_far_level_or_unknown(height, tilt_deg, table):
+    h = LeafHarness(TableOffset(), pose=pose(tilted(tilt_deg), (0.0, 0.0, height)))
+    if table is not None:
+        h.set(TABLE_Z_KEY, table)
+    for _ in range(50):
+        h.tick(frame=contact_frame())
+    assert_allclose(py_trees.blackboard.Blackboard.storage["/scan/cop_target"], [0.0, 0.0])
+
+
+@pytest.mark.parametrize("cls, reference", [(CentreTo, Centre), (RollTo, Roll)])
+def test_centre_to_and_roll_to_follow_their_key_every_cycle(cls, reference):
+    leaf = cls(target_key="/test/cop", kp=2.0)
+    h = LeafHarness(leaf)
+    h.set("/test/cop", (0.0, 0.0))
+    h.tick(make_features(cop_px=(9.5, 7.5)))  # the contact 10 mm off the centre along x
+    first = h.twist_of(leaf)
+    h.set("/test/cop", (0.01, 0.0))  # now the target is where the contact is
+    h.tick(make_features(cop_px=(9.5, 7.5)))
+    assert_allclose(h.twist_of(leaf), 0.0, atol=1e-12)
+    h.set("/test/cop", (-0.005, 0.002))
+    h.tick(make_features(cop_px=(9.5, 7.5)))
+    ref = LeafHarness(reference(target_m=(-0.005, 0.002), kp=2.0))
+    ref.tick(make_features(cop_px=(9.5, 7.5)))
+    rows = [0, 1] if cls is CentreTo else [3, 4]  # roll_to also keeps the contact's height: row vz
+    assert_allclose(h.twist[rows], ref.twist[rows], atol=1e-12)
+    assert np.any(first != 0)
+
+
+def test_square_to_slope_turns_an_edge_downhill():
+    leaf = SquareToSlope(kp=2.0, output_limit=10.0)
+    yaw = 30.0
+    h = LeafHarness(leaf, pose=pose(tilted(35, yaw_deg=yaw), (0.0, 0.0, 0.05)))
+    errors = []
+    for _ in range(800):
+        h.tick()
+        w = h.twist_of(leaf)[5]
+        errors.append(abs(leaf.error_rad))
+        yaw += math.degrees(w * DT)  # the pad turns about its own normal as commanded
+        h.set_pose(pose(tilted(35, yaw_deg=yaw), (0.0, 0.0, 0.05)))
+    assert errors[0] == pytest.approx(math.radians(30), abs=1e-6)
+    assert errors[-1] < math.radians(0.5)
+    assert yaw == pytest.approx(0.0, abs=0.5)  # back to an edge downhill, the nearer way
+    # level: nothing to do
+    h.set_pose(pose(DOWN, (0.0, 0.0, 0.05)))
+    h.tick()
+    assert_allclose(h.twist_of(leaf), 0.0)
+
+
+def test_square_to_slope_does_not_wind_the_wrist_beyond_its_turn_limit():
+    leaf = SquareToSlope(max_turn_rad=math.radians(100))
+    h = LeafHarness(leaf, pose=pose(tilted(35, yaw_deg=40.0), (0.0, 0.0, 0.05)))
+    h.tick()
+    assert leaf.error_rad == pytest.approx(math.radians(-40))  # the nearest edge: turn back 40°
+    leaf.turned_rad = math.radians(-80)  # as if it had already turned 80° that way
+    leaf.error_rad = math.nan
+    h.tick()
+    # not the other edge, 50° on: that turn would swing a corner downhill, towards the table;
+    # it turns to the limit and holds there
+    assert leaf.error_rad == pytest.approx(math.radians(-20))
+    leaf.turned_rad = math.radians(-100)
+    h.tick()
+    assert leaf.error_rad == pytest.approx(0.0, abs=1e-9)
+    # the downhill direction drifts on, past the pad's diagonal: the edge on the other side
+    # is now the nearest, and within the limit
+    h.set_pose(pose(tilted(35, yaw_deg=50.0), (0.0, 0.0, 0.05)))
+    h.tick()
+    assert leaf.error_rad == pytest.approx(math.radians(40))
+
+
+def test_square_to_slope_never_swings_a_corner_downhill():
+    """Whatever it turned before, the turn it asks for is at most 45° plus the hysteresis: the
+    pad's lowest point passes no corner on its way to an edge."""
+    leaf = SquareToSlope(max_turn_rad=math.radians(120))
+    h = LeafHarness(leaf)
+    for yaw in np.arange(-180.0, 180.0, 7.0):
+        for turned in (-115.0, -60.0, 0.0, 60.0, 115.0):
+            leaf.turned_rad = math.radians(turned)
+            h.set_pose(pose(tilted(40, yaw_deg=yaw), (0.0, 0.0, 0.05)))
+            h.tick()
+            assert abs(leaf.error_rad) <= math.radians(55.0) + 1e-9
+            assert abs(leaf.turned_rad) <= math.radians(120.0) + 0.01
+
+
+# --------------------------------------------------------------------------------- the map
+
+
+def disc(radius: float, centre=(0.0, 0.0), z: float = 0.05, step: float = 0.001, normal=(0.0, 0.0, 1.0)):
+    g = np.arange(-radius, radius + 1e-9, step)
+    X, Y = np.meshgrid(g, g)
+    keep = X**2 + Y**2 <= radius**2
+    pts = np.column_stack((X[keep] + centre[0], Y[keep] + centre[1], np.full(keep.sum(), z)))
+    return pts, np.tile(np.asarray(normal, float) / np.linalg.norm(normal), (len(pts), 1))
+
+
+def test_frontier_is_the_rim_of_the_touched_disc_with_outward_directions():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.1)
+    m.add(*disc(0.02))
+    rows, cols, out = m.frontier()
+    xy = m.centre_of(rows, cols)
+    r = np.linalg.norm(xy, axis=1)
+    assert len(rows) > 40
+    assert np.all(np.abs(r - 0.02) < 0.004)
+    radial = xy / r[:, None]
+    assert np.all(np.sum(radial * out, axis=1) > 0.7)
+
+
+def test_thin_gaps_and_small_holes_are_not_frontier_but_a_wide_gap_is():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
+    pts, normals = disc(0.03, step=0.0005)
+    for lo, hi in ((0.0, 0.002), (0.011, 0.0172)):  # a gap one cell wide, one three cells wide
+        keep = ~((pts[:, 0] >= lo) & (pts[:, 0] < hi))
+        pts, normals = pts[keep], normals[keep]
+    hole = (np.abs(pts[:, 0] + 0.010) < 0.0015) & (np.abs(pts[:, 1]) < 0.001)  # a small hole
+    m.add(pts[~hole], normals[~hole])
+    rows, cols, _ = m.frontier()
+    x = m.centre_of(rows, cols)[:, 0]
+    inner = np.linalg.norm(m.centre_of(rows, cols), axis=1) < 0.025
+    assert not np.any(inner & (np.abs(x - 0.001) < 0.002))     # the thin gap is covered
+    assert not np.any(inner & (np.abs(x + 0.010) < 0.003))     # the small hole too
+    assert np.any(inner & (x > 0.008) & (x < 0.02))            # the wide gap is open
+
+
+def test_blocking_covers_a_disc_and_the_neighbouring_directions_only():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
+    m.block((0.01, 0.0), 0.005, (1.0, 0.0))
+    r, c = m.cell_of(np.array([[0.01, 0.0], [0.02, 0.0]])).T
+    assert m.blocked[r[0], c[0]].tolist() == [True, True, False, False, False, False, False, True]
+    assert not m.blocked[r[1], c[1]].any()
+
+
+# ----------------------------------------------------------------------------- the planner
+
+
+def planner_harness(patch, contact_xy, height=0.05, rotation=DOWN, table=None, **kw):
+    leaf = FrontierGuidance(key="/scan/guidance", replan_s=0.04, **kw)
+    h = LeafHarness(leaf, pose=pose(rotation, (contact_xy[0], contact_xy[1], height)))
+    h.contacts.extend(patch[0], patch[1], 2000.0, 0.0)
+    if table is not None:
+        h.set(TABLE_Z_KEY, table)
+    return leaf, h
+
+
+def guidance() -> np.ndarray:
+    return np.asarray(py_trees.blackboard.Blackboard.storage["/scan/guidance"])
+
+
+def test_planner_slides_towards_the_nearest_open_boundary():
+    # a touched disc of 20 mm around the origin; the pad touches at x = 15 mm: the nearest
+    # frontier is the rim at x = +20 mm, i.e. world +x = sensor +x
+    leaf, h = planner_harness(disc(0.02), (0.015, 0.0), speed_mps=0.02)
+    h.tick(make_features())
+    v = guidance()
+    assert np.linalg.norm(v[:2]) == pytest.approx(0.02)
+    assert v[0] > 0.019 and v[2:].tolist() == [0, 0, 0, 0]
+    assert leaf.target is not None
+
+
+def test_planner_succeeds_when_no_frontier_is_within_the_tilt_limit():
+    tilt = math.radians(68)
+    steep = (math.sin(tilt), 0.0, math.cos(tilt))  # every touched cell is tilted 68°
+    leaf, h = planner_harness(disc(0.02, normal=steep), (0.0, 0.0), max_tilt_rad=math.radians(70),
+                              tilt_margin_rad=math.radians(5))
+    assert h.tick(make_features()) == Status.SUCCESS
+    assert leaf.feedback_message.startswith("no reachable frontier left")
+    assert_allclose(guidance(), 0.0)
+
+
+def test_planner_does_not_start_before_anything_is_touched_and_waits_without_contact():
+    leaf, h = planner_harness((np.zeros((0, 3)), np.zeros((0, 3))), (0.0, 0.0))
+    for _ in range(20):
+        assert h.tick(make_features()) == Status.RUNNING
+    assert h.tick(make_features(in_contact=False)) == Status.RUNNING
+    assert leaf.feedback_message.startswith("waiting for contact")
+
+
+def test_planner_leaves_out_frontier_at_the_table():
+    # the touched patch lies 2 mm above the table: it is the table's edge, not the object's
+    leaf, h = planner_harness(disc(0.02, z=0.002), (0.0, 0.0), height=0.002, table=0.0)
+    assert h.tick(make_features()) == Status.SUCCESS
+
+
+def test_planner_backs_off_uphill_when_the_pad_nears_the_table_and_blocks_that_way():
+    # the touched disc (tilted 40° towards +x) lies 30 mm up; the pad, tilted as much, touches
+    # it 5 mm from its rim at +x; its lowest edge is 40 mm * sin 40° = 25.7 mm below the contact
+    tilt = math.radians(40)
+    patch = disc(0.02, z=0.03, normal=(math.sin(tilt), 0.0, math.cos(tilt)))
+    leaf, h = planner_harness(patch, (0.015, 0.0), height=0.03, rotation=tilted(40), table=0.0,
+                              table_clearance_m=0.002)
+    h.tick(make_features())
+    assert leaf.target is not None and leaf.direction[0] > 0.9  # downhill, to the rim at +x
+    # the pad sinks towards the table: its lowest corner passes 2 mm
+    for z in np.arange(0.03, 0.025, -0.0005):
+        h.set_pose(pose(tilted(40), (0.015, 0.0, z)))
+        h.tick(make_features())
+    assert leaf.blocks == 1 and "above the table" in leaf.last_end
+    v = guidance()
+    # backing off: uphill (the world's up is -x on this pad, sensor x = world x)
+    assert v[0] < 0
+    assert leaf.feedback_message.startswith("backing off")
+    rows, cols, out = leaf.map.frontier()
+    blocked = leaf.map.blocked[rows, cols].any(axis=1)
+    assert np.all(out[blocked][:, 0] > 0)  # only the frontier facing +x was blocked
+
+
+# ------------------------------------------------------- recovering from the table's guard
+
+
+def sinking_scan(max_trips=0):
+    """The touched disc of the test above, 30 mm up and tilted 40° towards +x; the pad touches
+    it 5 mm from its rim at +x; in parallel, as in trees/scan_object.yaml, frontier_guidance
+    (its own table test off, to leave it to the guard) and a recovering table_clearance guard
+    (0.5 mm, 1 s)."""
+    tilt = math.radians(40)
+    leaf = FrontierGuidance(key="/scan/guidance", replan_s=0.04, table_clearance_m=0.0)
+    guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0, hit_m=0.0, max_trips=max_trips)
+    root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                        children=[leaf, guard])
+    h = LeafHarness(root, pose=pose(tilted(40), (0.015, 0.0, 0.03)))
+    h.contacts.extend(*disc(0.02, z=0.03, normal=(math.sin(tilt), 0.0, math.cos(tilt))), 2000.0, 0.0)
+    h.set(TABLE_Z_KEY, 0.0)
+    return leaf, guard, root, h
+
+
+def sink(h, x: float, z_to: float, ticks: int = 20) -> Status:
+    """Move the pad (tilted 40°; its lowest corner 25.7 mm below its centre) from where it is
+    to ``x`` (m, world) and the height ``z_to``; the status of the last tick."""
+    status = Status.RUNNING
+    T = py_trees.blackboard.Blackboard.storage[POSE]
+    for xi, zi in zip(np.linspace(T[0, 3], x, ticks), np.linspace(T[2, 3], z_to, ticks)):
+        h.set_pose(pose(tilted(40), (xi, 0.0, zi)))
+        status = h.tick(make_features())
+        if status != Status.RUNNING:
+            break
+    return status
+
+
+DROP = 0.040 * math.sin(math.radians(40))  # the lowest corner below the pad's centre (m)
+
+
+def test_a_pad_corner_near_the_table_backs_off_and_the_scan_goes_on():
+    leaf, guard, root, h = sinking_scan()
+    h.tick(make_features())
+    assert leaf.target is not None and leaf.direction[0] > 0.9  # downhill, to the rim at +x
+    # the corner sinks to 0.2 mm above the table: the guard trips, but the scan goes on
+    assert sink(h, 0.015, DROP + 0.0002) == Status.RUNNING
+    assert guard.trips == 1 and guard.status == Status.RUNNING
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is not None
+    assert leaf.ends["table"] == 1 and leaf.target is None
+    assert leaf.feedback_message.startswith("backing off")
+    assert guidance()[0] < 0  # uphill, away from the corner (sensor x = world x)
+    rows, cols, out = leaf.map.frontier()
+    blocked = leaf.map.blocked[rows, cols].any(axis=1)
+    assert blocked.any() and np.all(out[blocked][:, 0] > 0)  # the frontier towards the table only
+    # the pad backs off, up and away: the alarm ends and another frontier is chosen
+    assert sink(h, 0.005, 0.04, ticks=50) == Status.RUNNING
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is None
+    for _ in range(20):
+        assert h.tick(make_features()) == Status.RUNNING
+    assert leaf.target is not None and leaf.direction[0] < 0.9 and leaf.attempts == 2
+    assert "table" in leaf.explained()
+
+
+@pytest.mark.parametrize("case", ["stays", "hits", "again"])
+def test_the_table_guard_still_fails_the_scan_when_it_must(case):
+    leaf, guard, root, h = sinking_scan(max_trips=3)
+    h.tick(make_features())
+    if case == "stays":  # 0.2 mm above the table, and it does not get clear within 1 s
+        assert sink(h, 0.015, DROP + 0.0002) == Status.RUNNING
+        status = Status.RUNNING
+        for _ in range(int(1.2 / h.dt)):
+            status = h.tick(make_features())
+            if status != Status.RUNNING:
+                break
+        expected = "not clear after backing off 1.0 s"
+    elif case == "hits":  # through the limit onto the table at once
+        status = sink(h, 0.015, DROP - 0.0005, ticks=10)
+        expected = "the pad touches the table"
+    else:  # it comes back, the third time ends it
+        for _ in range(3):
+            status = sink(h, 0.015, DROP + 0.0002)
+            if status != Status.RUNNING:
+                break
+            assert sink(h, 0.015, DROP + 0.01) == Status.RUNNING
+        expected = "trip 3 of at most 3"
+    assert status == Status.FAILURE
+    outcome, reason = root_outcome(root)
+    assert outcome == "failure"
+    assert reason.startswith("table_clearance: the pad's corner is") and expected in reason
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is None
+
+
+def test_a_scan_that_ends_by_touch_reports_why():
+    leaf = FrontierGuidance(key="/scan/guidance")
+    tilt = math.radians(80)
+    root = py_trees.composites.Parallel(
+        "scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+        children=[leaf, CoverageStalled(window_s=100)])
+    h = LeafHarness(root, pose=pose(DOWN, (0.0, 0.0, 0.05)))
+    h.contacts.extend(*disc(0.02, normal=(math.sin(tilt), 0.0, math.cos(tilt))), 2000.0, 0.0)
+    assert h.tick(make_features()) == Status.SUCCESS
+    status, reason = root_outcome(root)
+    assert status == "success"
+    assert reason.startswith("frontier_guidance: no reachable frontier left")
+    assert success_reason(root) == reason
+    # a tree that succeeds without such a leaf gives no reason
+    plain = py_trees.behaviours.Success("done")
+    plain.tick_once()
+    assert root_outcome(plain) == ("success", "")
+
+
+# ------------------------------------------------------------------------- the edge test
+
+
+def rolled(deg: float, axis_point, about="y") -> np.ndarray:
+    """The pad facing down, rolled ``deg`` about a world line through ``axis_point``."""
+    R = Rotation.from_euler(about, deg, degrees=True)
+    centre = R.apply(-np.asarray(axis_point)) + axis_point
+    return pose(R * DOWN, centre)
+
+
+def test_stripe_end_knows_rolling_over_an_edge_from_rolling_round_a_curve():
+    # over an edge: the pad turns about the edge line at x = 20 mm on its surface, the contact
+    # (the edge) stays put in the world
+    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
+    h = LeafHarness(leaf)
+    status = Status.RUNNING
+    for k in range(250):
+        deg = 20.0 * k / 250
+        h.set_pose(rolled(deg, (0.02, 0.0, 0.0)))
+        # the contact sits on the edge: at x = 20 mm on the pad
+        status = h.tick(make_features(cop_px=(11.5, 7.5)))
+        if status != Status.RUNNING:
+            break
+    assert status == Status.SUCCESS and leaf.cause == "edge"
+    assert 10 <= deg < 12
+    # round a cylinder of radius 50 mm: the contact moves R·θ as the pad turns
+    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
+    h = LeafHarness(leaf)
+    for k in range(250):
+        theta = math.radians(30.0 * k / 250)
+        R = Rotation.from_euler("y", theta)
+        h.set_pose(pose(R * DOWN, (0.05 * math.sin(theta), 0.0, 0.05 * math.cos(theta))))
+        assert h.tick(make_features()) == Status.RUNNING
+    # rolling back from an edge onto the face (the tilt shrinks) is no end either
+    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
+    h = LeafHarness(leaf)
+    for k in range(250):
+        h.set_pose(rolled(30.0 - 25.0 * k / 250, (0.02, 0.0, 0.0)))
+        assert h.tick(make_features(cop_px=(11.5, 7.5))) == Status.RUNNING
+
+
+# ------------------------------------------------------------------------ the mission's set-up
+
+
+def _storage(key):
+    return py_trees.blackboard.Blackboard.storage.get(key)
+
+
+def test_the_mission_writes_the_table_height_of_the_set_up(tmp_path):
+    from tactile_bt import run_mission
+
+    run_mission(str(REPO / "trees/force_hold.yaml"), str(REPO / "sim/pen.yaml"), duration=0.02,
+                overrides=["objects.1.height=0.004"])
+    assert _storage(TABLE_Z_KEY) == pytest.approx(0.004)
+    # a scene without a table: NaN, the guards are off
+    scene = tmp_path / "no_table.yaml"
+    scene.write_text("name: no_table\nmount: {type: cartesian, position: [0, 0, 0.123], rpy_deg: [180, 0, 0]}\n"
+                     "objects:\n  - {type: sphere, radius: 0.06, position: [0, 0, 0.06], stiffness: 1.0e3}\n")
+    run_mission(str(REPO / "trees/force_hold.yaml"), str(scene), duration=0.02)
+    assert math.isnan(_storage(TABLE_Z_KEY))
+
+
+def test_a_calibrated_table_height_from_the_command_line_wins_over_the_scene():
+    from tactile_bt import load_tree, run_mission
+
+    tree = load_tree(str(REPO / "trees/scan_object.yaml"), blackboard=[f"{TABLE_Z_KEY}=0.012"])
+    run_mission(tree, str(REPO / "sim/scan_box.yaml"), duration=0.02)
+    assert _storage(TABLE_Z_KEY) == pytest.approx(0.012)
+
+
+def test_roll_to_rolls_about_an_offset_contact_without_pressing_the_pad_in():
+    leaf = RollTo(target_key="/test/cop", kp=6.0)
+    h = LeafHarness(leaf)
+    h.set("/test/cop", (0.03, 0.0))
+    h.tick(make_features(cop_px=(12.5, 9.5)))  # the contact at x = 25 mm, y = 10 mm
+    twist = h.twist_of(leaf)
+    x, y = 0.025, 0.010
+    assert twist[3] != 0 and twist[4] != 0
+    # the contact point's speed v + ω × p has no component along the pad normal
+    w = twist[3:]
+    assert twist[2] + np.cross(w, [x, y, 0.0])[2] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_square_to_slope_turns_about_the_contact():
+    leaf = SquareToSlope(kp=2.0)
+    h = LeafHarness(leaf, pose=pose(tilted(35, yaw_deg=20.0), (0.0, 0.0, 0.05)))
+    h.tick(make_features(cop_px=(1.5, 9.5)))  # the contact at x = -30 mm, y = 10 mm
+    v = h.twist_of(leaf)
+    assert v[5] != 0 and v[2:5].tolist() == [0, 0, 0]
+    # the contact point's speed v + ω × p is zero: it keeps its place on the pad
+    assert_allclose(v[:3] + np.cross(v[3:], [-0.03, 0.01, 0.0]), 0.0, atol=1e-15)
+
+
+def test_an_attempt_that_ends_on_the_way_blocks_its_target_and_the_frontier_on_the_way():
+    # a strip of touched surface along x; the pad at x = -30 mm heads for the rim along the
+    # strip's +y side further on, and the attempt ends where it is
+    pts, normals = disc(0.06, step=0.001)
+    keep = np.abs(pts[:, 1]) <= 0.02
+    leaf, h = planner_harness((pts[keep], normals[keep]), (-0.03, 0.015))
+    h.tick(make_features())
+    assert leaf.target is not None
+    target = leaf._target_xy.copy()
+    leaf._block(np.array([-0.03, 0.015, 0.05]), "test")
+    rows, cols, out = leaf._candidates()
+    xy = leaf.map.centre_of(rows, cols)
+    assert not np.any(np.linalg.norm(xy - target, axis=1) < 1e-9)  # the target is out of reach
