@@ -73,7 +73,7 @@ from tactile_bt.tree.composites import Parallel, Selector, Sequence
 from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
 from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
                                         normalise_key, parameters_of, uses_pad_units)
-from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, load_entry_points, node_types
+from tactile_bt.tree.registry import COMPOSITES, POLICIES, format_parameter, load_entry_points, node_types
 from tactile_bt.tree.subtrees import PARAM_REF, Subtree, SubtreeExpansion, parse_subtrees
 from tactile_bt.units import element_unit
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
@@ -600,27 +600,13 @@ class LoadedTree(py_trees.trees.BehaviourTree):
         super().setup(*args, **kwargs)
 
 
-def _format_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if value is None:
-        return "null"
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    if isinstance(value, (tuple, list)):
-        return "[" + ", ".join(_format_value(v) for v in value) + "]"
-    if value is MISSING:
-        return "required"
-    return str(value)
-
-
 def format_parameters(tree: LoadedTree) -> str:
     """Every node of a loaded tree with its resolved parameters, one row per parameter:
     ``node  type  parameter  value  unit  source`` (``tactile-bt tree FILE --params``)."""
     rows = [("node", "type", "parameter", "value", "unit", "source")]
     for record in tree.node_parameters:
         for name, value in record.values.items():
-            rows.append((record.name, record.type, name, _format_value(value), record.units.get(name) or "",
+            rows.append((record.name, record.type, name, format_parameter(value), record.units.get(name) or "",
                          record.sources[name]))
         if not record.values:
             rows.append((record.name, record.type, "", "", "", ""))
