@@ -5,9 +5,10 @@ value before anything runs, with one line naming the option (:class:`OneLinePars
 block). :func:`check_output` checks an
 output file before any work (and refuses to overwrite one without ``--force`` where a file is
 precious). :func:`one_line_warnings` shows the :class:`~tactile_bt.errors.RecordingWarning` of a
-replay as ``warning: ...`` lines.
+replay as ``warning: ...`` lines. :func:`parse_assignments` reads the ``KEY=VALUE`` strings of
+``--param`` and ``--blackboard``; what the keys mean is the tree loader's to check.
 
-Layer: base (imports only :mod:`tactile_bt.errors`).
+Layer: base (imports only :mod:`tactile_bt.errors` and :mod:`tactile_bt.yamlutil`).
 """
 
 from __future__ import annotations
@@ -19,12 +20,15 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterable, Iterator
 
-from tactile_bt.errors import OutputPathError
+import yaml
+
+from tactile_bt.errors import OutputPathError, YamlError
+from tactile_bt.yamlutil import parse_value
 
 __all__ = ["OneLineParser", "validator", "positive_float", "positive_int", "nonnegative_int", "check_output", "check_output_dir",
-           "one_line_warnings"]
+           "one_line_warnings", "option_error", "parse_assignments"]
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -57,6 +61,47 @@ positive_float = validator(float, lambda v: math.isfinite(v) and v > 0, "a finit
 positive_int = validator(int, lambda v: v >= 1, "an integer >= 1")
 #: An integer >= 0 (seeds).
 nonnegative_int = validator(int, lambda v: v >= 0, "an integer >= 0")
+
+
+def option_error(source: str, message: str, field: str | None = None) -> YamlError:
+    """The error of a command-line value: ``SOURCE: message`` (``--param hold.kp: ...``), carrying
+    ``message`` and ``field`` as the tree loader's located errors do."""
+    err = YamlError(message, source)
+    err.message, err.field = message, field  # type: ignore[attr-defined]
+    return err
+
+
+def parse_assignments(items: Iterable[str], option: str, what: str) -> list[tuple[str, str, Any]]:
+    """``KEY=VALUE`` strings of ``option`` as ``(key, source, value)``, ``source`` being
+    ``"OPTION KEY"`` for messages.
+
+    VALUE is read like a YAML value (``1.5 kPa``, ``5e-5``, ``[1 mm, 0]``); one that starts with
+    ``@`` is kept as text (a blackboard reference); an empty one is ``None``. ``what`` names the
+    key in the message of a string without ``=`` (``expected NODE.PARAM=VALUE``).
+
+    Raises
+    ------
+    YamlError
+        ``OPTION ITEM: expected WHAT=VALUE``, or ``OPTION KEY: cannot read the value ...``.
+    """
+    out = []
+    for item in items:
+        if not isinstance(item, str) or "=" not in item:
+            raise option_error(f"{option} {item}", f"expected {what}=VALUE")
+        key, text = item.split("=", 1)
+        key, text = key.strip(), text.strip()
+        source = f"{option} {key}"
+        if text.startswith("@"):
+            value: Any = text  # a blackboard reference: '@' cannot start a plain YAML scalar
+        else:
+            try:
+                value = parse_value(text) if text else None
+            except yaml.YAMLError as exc:
+                problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+                raise option_error(source, f"cannot read the value {text!r}: {problem}") from None
+        out.append((key, source, value))
+    return out
+
 
 def check_output(path: str | os.PathLike, force: bool = False, option: str | None = None,
                  create_parent: bool = False) -> Path:

@@ -70,6 +70,12 @@ SLIDE_SPEED_MPS: float = 0.02
 TWIST_LINEAR_LIMIT_MPS: float = 0.05
 TWIST_ANGULAR_LIMIT_RPS: float = 1.5
 
+# --- The compliant arm (KUKA LWR 4 in joint impedance mode) -----------------------------------
+#: Joint stiffness of the compliance mode (N m/rad, paper Sec. V).
+ARM_STIFFNESS_NM_PER_RAD: float = 200.0
+#: Joint damping of the compliance mode (N m s/rad, paper Sec. V).
+ARM_DAMPING_NMS_PER_RAD: float = 0.2
+
 # --- Metrics (the columns of the paper's Tables I-III) -----------------------------------------
 #: Convergence bands for the response time, per logged error (Pa, px, px, rad).
 METRIC_BANDS = {

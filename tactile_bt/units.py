@@ -21,7 +21,7 @@ from difflib import get_close_matches
 from tactile_bt.errors import ParameterTypeError
 
 __all__ = ["ACCEPTED_UNITS", "PAD_UNITS", "TWIST", "VECTOR_UNITS", "accepted_units", "element_unit",
-           "split_quantity", "uses_pad_units", "parse_quantity", "to_si"]
+           "split_quantity", "uses_pad_units", "parse_quantity", "to_si", "format_value"]
 
 _DEG = math.pi / 180.0
 #: SI unit → the units a value may carry instead, with their factor to the SI unit. Lengths
@@ -149,3 +149,20 @@ def to_si(value: object, degrees: bool = False) -> object:
         return number * ACCEPTED_UNITS["deg"][unit]
     table = next((t for si, t in ACCEPTED_UNITS.items() if si != "deg" and unit in t), None)
     return value if table is None else number * table[unit]
+
+
+def format_value(value: object, digits: int = 6) -> str:
+    """A parameter or grid value as a tree or scene file writes it (YAML spelling), for messages,
+    tables and docs: ``true``/``false``, ``null``, floats with ``digits`` significant digits
+    (``2000.0`` → ``2000``, ``0.1 + 0.2`` → ``0.3``), lists as ``[a, b]``; text (``"2.5 kPa"``)
+    and other values as ``str`` gives them. The one formatter of values for people; tables that
+    must round-trip (a sweep's CSV) keep ``repr``."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if value is None:
+        return "null"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(format_value(v, digits) for v in value) + "]"
+    return str(value)

@@ -27,7 +27,7 @@ Layer: control.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -41,6 +41,7 @@ __all__ = [
     "projection",
     "PROJECTIONS",
     "feature_error",
+    "feature_errors_of",
     "PID",
     "ServoCommand",
     "limit_twist",
@@ -91,21 +92,71 @@ PROJECTIONS = {
 }
 
 
+def feature_errors_of(components: Sequence[int],
+                      computed: Sequence[int] | None = None) -> Callable[[object, tuple], list[float]]:
+    """The error function of ``components`` of Δf (indices into :data:`FEATURE_NAMES`).
+
+    The one place of the formulas: ``errors(features, targets) -> [Δf[c] for c in components]``
+    with ``targets = (target_cop (m, m), target_pressure (Pa), target_orientation (rad))`` and
+    ``features`` in contact (the caller checks ``in_contact``).
+
+    Parameters
+    ----------
+    components : sequence of int
+        The components of Δf, in the order of the returned list.
+    computed : sequence of int, optional
+        Positions in ``components`` that are computed; the others are NaN (default: all). Each
+        call computes only these, and the usual selections (pressure, orientation, the COP) get
+        a function of one formula: a servo leaf calls it every control cycle.
+    """
+    components = tuple(int(c) for c in components)
+    if any(c not in range(len(FEATURE_NAMES)) for c in components):
+        raise ValueError(f"feature components must be in 0..{len(FEATURE_NAMES) - 1}, got {components!r}")
+    n = len(components)
+    computed = list(range(n)) if computed is None else [int(j) for j in computed]
+    if len(computed) == n:  # every component computed: one formula for each usual selection
+        if components == (2,):
+            return lambda f, targets: [targets[1] - f.pressure]
+        if components == (3,):
+            return lambda f, targets: [wrap_half_pi(targets[2] - f.orientation)]
+        if components == (0, 1):
+            def cop_error(f, targets):
+                x, y = f.cop_xy
+                cop = targets[0]
+                return [cop[0] - x, cop[1] - y]
+            return cop_error
+    wanted = {components[j] for j in computed}
+    cop_wanted = 0 in wanted or 1 in wanted
+
+    def errors(f, targets):
+        full = [math.nan] * 4
+        cop, pressure, alpha = targets
+        if cop_wanted:
+            x, y = f.cop_xy
+            full[0], full[1] = cop[0] - x, cop[1] - y
+        if 2 in wanted:
+            full[2] = pressure - f.pressure
+        if 3 in wanted:
+            full[3] = wrap_half_pi(alpha - f.orientation)
+        out = [math.nan] * n
+        for j in computed:
+            out[j] = full[components[j]]
+        return out
+    return errors
+
+
+_ALL_ERRORS = feature_errors_of(range(len(FEATURE_NAMES)))
+
+
 def feature_error(features, target_cop=(0.0, 0.0), target_pressure=0.0, target_orientation=0.0) -> tuple:
     """Δf = target − measured, ``(Δx (m), Δy (m), Δp (Pa), Δα (rad, modulo π))``.
 
     Components that cannot be measured (no contact, orientation not computed or undefined) are
-    NaN; callers skip them.
+    NaN; callers skip them. The formulas are :func:`feature_errors_of`'s.
     """
     if not features.in_contact:
         return (math.nan, math.nan, math.nan, math.nan)
-    x, y = features.cop_xy
-    return (
-        target_cop[0] - x,
-        target_cop[1] - y,
-        target_pressure - features.pressure,
-        wrap_half_pi(target_orientation - features.orientation),
-    )
+    return tuple(_ALL_ERRORS(features, (target_cop, target_pressure, target_orientation)))
 
 
 def per_component(value, n: int, label: str, owner: str = "") -> list[float]:

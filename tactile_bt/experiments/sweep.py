@@ -41,7 +41,7 @@ from typing import Any, Callable
 
 from tactile_bt import shipped
 from tactile_bt.errors import OutputPathError, TactileBtError, YamlError
-from tactile_bt.units import to_si
+from tactile_bt.units import format_value, to_si
 from tactile_bt.yamlutil import Located, load_located, plain
 
 __all__ = ["SweepSpec", "Run", "SweepResult", "load_spec", "plan", "execute", "error_row", "flatten_report",
@@ -694,10 +694,6 @@ def _float(text: Any) -> float | None:
         return None
 
 
-def _label(value: Any) -> str:
-    return f"{value:g}" if isinstance(value, float) else str(value)
-
-
 def _x_key(spec: SweepSpec) -> str | None:
     """The grid key along the plots' x axis: the numeric one with the most values."""
     numeric = [(len(v), k) for k, v in spec.grid
@@ -731,7 +727,7 @@ def plot_summary(spec: SweepSpec, runs: list[Run], rows: list[dict[str, str]], p
 
     def series(run: Run) -> str:
         parts = [] if x_key is None else [run.scene_label] * (len(spec.scenes) > 1)
-        parts += [f"{k}={_label(v)}" for k, v in run.values if k != x_key]
+        parts += [f"{k}={format_value(v)}" for k, v in run.values if k != x_key]
         return ", ".join(parts)
 
     groups: dict[str, list[tuple[Run, dict]]] = {}
@@ -756,7 +752,7 @@ def plot_summary(spec: SweepSpec, runs: list[Run], rows: list[dict[str, str]], p
         if log_x:
             ax.set_xscale("log")
         if not numeric_x:
-            ax.set_xticks(range(len(x_values)), [_label(x) for x in x_values], fontsize=8,
+            ax.set_xticks(range(len(x_values)), [format_value(x) for x in x_values], fontsize=8,
                           rotation=20 if len(x_values) > 3 else 0)
         ax.set_xlabel(x_key or "scene", fontsize=8)
         ax.tick_params(labelsize=8)
@@ -791,7 +787,7 @@ def format_summary(result: SweepResult, max_metrics: int = 4) -> str:
         key = json.dumps([run.scene_label, run.values], default=str)  # values may be lists
         groups.setdefault(key, (run, []))[1].append(row)
     for run, members in groups.values():
-        cells = [run.scene_label, *(_label(v) for _, v in run.values), str(len(members)),
+        cells = [run.scene_label, *(format_value(v) for _, v in run.values), str(len(members)),
                  str(sum(m.get("status") == "error" for m in members))]
         for column in shown:
             numbers = [_float(m.get(column)) for m in members]

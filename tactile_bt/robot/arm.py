@@ -64,6 +64,7 @@ import math
 
 import numpy as np
 
+from tactile_bt import defaults
 from tactile_bt.robot.equilibrium import (
     EquilibriumSolverMixin,
     SettleResult,
@@ -89,9 +90,9 @@ __all__ = [
 ]
 
 #: Joint stiffness of the compliance mode in N m/rad (paper Sec. V).
-DEFAULT_STIFFNESS = 200.0
+DEFAULT_STIFFNESS = defaults.ARM_STIFFNESS_NM_PER_RAD
 #: Joint damping of the compliance mode in N m s/rad (paper Sec. V).
-DEFAULT_DAMPING = 0.2
+DEFAULT_DAMPING = defaults.ARM_DAMPING_NMS_PER_RAD
 #: Diagonal joint-space inertia in kg m^2 for ``mode="dynamic"``: a rough guess of the link-side
 #: inertia of the LWR in a bent posture (no published value); the quasi-static mode ignores it.
 DEFAULT_INERTIA = np.array([1.0, 1.0, 0.3, 0.3, 0.05, 0.05, 0.01])

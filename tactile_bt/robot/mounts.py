@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tactile_bt import defaults
 from tactile_bt.errors import MountError
 from tactile_bt.control.spatial import integrate_spatial, make_pose
 from tactile_bt.robot.interface import JointState, SimulatedRobot
@@ -83,7 +84,8 @@ class ArmMount(SimulatedRobot):
         ``PadGeometry()``.
     """
 
-    def __init__(self, pose: np.ndarray, base=None, stiffness: float = 200.0, damping: float = 0.2,
+    def __init__(self, pose: np.ndarray, base=None, stiffness: float = defaults.ARM_STIFFNESS_NM_PER_RAD,
+                 damping: float = defaults.ARM_DAMPING_NMS_PER_RAD,
                  pad: PadGeometry | None = None) -> None:
         from tactile_bt.robot.arm import CompliantArm
         from tactile_bt.robot.kinematics import Q_READY, LWR4Kinematics
@@ -153,8 +155,8 @@ class MountSpec:
     position: tuple = (0.0, 0.0, 0.05)
     rpy_deg: tuple = (180.0, 0.0, 0.0)
     base: tuple | None = None
-    stiffness: float = 200.0
-    damping: float = 0.2
+    stiffness: float = defaults.ARM_STIFFNESS_NM_PER_RAD
+    damping: float = defaults.ARM_DAMPING_NMS_PER_RAD
     pose: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:

@@ -61,10 +61,10 @@ from pathlib import Path
 from typing import Any
 
 import py_trees
-import yaml
 from py_trees.common import Access
 
 from tactile_bt import shipped
+from tactile_bt.arguments import option_error, parse_assignments
 from tactile_bt.errors import ParameterTypeError, ParameterValueError, TreeError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
@@ -73,10 +73,10 @@ from tactile_bt.tree.composites import Parallel, Selector, Sequence
 from tactile_bt.tree.diagnostics import did_you_mean, located_error, origin_of
 from tactile_bt.tree.parameters import (Bound, bind_blackboard, convert_parameter, describe_type, node_label,
                                         normalise_key, parameters_of, uses_pad_units)
-from tactile_bt.tree.registry import COMPOSITES, MISSING, POLICIES, load_entry_points, node_types
+from tactile_bt.tree.registry import COMPOSITES, POLICIES, format_parameter, load_entry_points, node_types
 from tactile_bt.tree.subtrees import PARAM_REF, Subtree, SubtreeExpansion, parse_subtrees
 from tactile_bt.units import element_unit
-from tactile_bt.yamlutil import Located, load_located, parse_value, plain
+from tactile_bt.yamlutil import Located, load_located, plain
 
 __all__ = ["load_tree", "LoadedTree", "NodeParameters", "format_parameters", "build_node"]
 
@@ -407,39 +407,14 @@ def _located(value: Any, source: str) -> Located:
     return Located(value, source, None, None)  # type: ignore[arg-type]
 
 
-def _option_error(source: str, message: str, field: str | None = None) -> TreeError:
-    err = TreeError(message, source)
-    err.message, err.field = message, field  # type: ignore[attr-defined]
-    return err
-
-
 def _parse_assignments(items, option: str, what: str) -> list[tuple[str, str, Located]]:
-    """``KEY=VALUE`` strings (or a mapping key → value) as (key, source, located value); a string
-    VALUE is parsed like a YAML value (``1.5 kPa``, ``5e-5``, ``[1 mm, 0]``, ``@/key``)."""
-    pairs: list[tuple[str, Any, bool]] = []
+    """A mapping key → value, or ``KEY=VALUE`` strings (:func:`~tactile_bt.arguments.parse_assignments`),
+    as (key, source, located value)."""
     if isinstance(items, dict):
-        pairs = [(str(k), v, False) for k, v in items.items()]
+        pairs = [(str(k), f"{option} {k}", v) for k, v in items.items()]
     else:
-        for item in items:
-            if not isinstance(item, str) or "=" not in item:
-                raise _option_error(f"{option} {item}", f"expected {what}=VALUE")
-            key, text = item.split("=", 1)
-            pairs.append((key.strip(), text, True))
-    out = []
-    for key, value, parse in pairs:
-        source = f"{option} {key}"
-        if parse:
-            text = value.strip()
-            if text.startswith("@"):
-                value = text  # a blackboard reference: '@' cannot start a plain YAML scalar
-            else:
-                try:
-                    value = parse_value(text) if text else None
-                except yaml.YAMLError as exc:
-                    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-                    raise _option_error(source, f"cannot read the value {text!r}: {problem}") from None
-        out.append((key, source, _located(value, source)))
-    return out
+        pairs = parse_assignments(items, option, what)
+    return [(key, source, _located(value, source)) for key, source, value in pairs]
 
 
 def _resolve_overrides(params, surveyed: list[_Surveyed]) -> dict[int, dict[str, Located]]:
@@ -453,28 +428,28 @@ def _resolve_overrides(params, surveyed: list[_Surveyed]) -> dict[int, dict[str,
     overrides: dict[int, dict[str, Located]] = {}
     for key, source, value in _parse_assignments(params, "--param", "NODE.PARAM"):
         if "." not in key:
-            raise _option_error(source, f"expected NODE.PARAM=VALUE (a node's name or type, a dot and one of "
+            raise option_error(source, f"expected NODE.PARAM=VALUE (a node's name or type, a dot and one of "
                                         f"its parameters); nodes: {', '.join(names) or 'none'}")
         node, param = key.rsplit(".", 1)
         chosen = [s for s in targets if s.name == node]
         if not chosen:
             by_type = [s for s in targets if s.type == node]
             if len(by_type) > 1:
-                raise _option_error(source, f"{len(by_type)} nodes are of type {node!r} (named "
+                raise option_error(source, f"{len(by_type)} nodes are of type {node!r} (named "
                                             f"{', '.join(repr(s.name) for s in by_type)}): give one's name")
             chosen = by_type
         if not chosen:
             composite = next((s for s in surveyed if node in (s.name, s.type)), None)
             if composite is not None:
-                raise _option_error(source, f"{node!r} is a {composite.type} (a composite): --param sets the "
+                raise option_error(source, f"{node!r} is a {composite.type} (a composite): --param sets the "
                                             f"parameters of leaves and decorators; nodes: {', '.join(names)}")
             candidates = [*names, *dict.fromkeys(s.type for s in targets)]
-            raise _option_error(source, f"no node named {node!r}{did_you_mean(node, candidates)}; "
+            raise option_error(source, f"no node named {node!r}{did_you_mean(node, candidates)}; "
                                         f"nodes: {', '.join(names) or 'none'}")
         for s in chosen:
             params = [p.name for p in parameters_of(s.cls)]
             if param not in params:
-                raise _option_error(source, f"{node_label(s.cls, s.name)} has no parameter {param!r}"
+                raise option_error(source, f"{node_label(s.cls, s.name)} has no parameter {param!r}"
                                             f"{did_you_mean(param, params)}; parameters: {', '.join(params)}", key)
             overrides.setdefault(s.index, {})[param] = value
     return overrides
@@ -518,7 +493,7 @@ def _probe(record: NodeParameters, parameter: str, value: Any, source: str) -> N
     try:
         probe = type(record.node)(name=record.name, **extra, **kwargs)
     except ValueError as exc:
-        raise _option_error(source, str(exc)) from None
+        raise option_error(source, str(exc)) from None
     _discard(probe)
 
 
@@ -533,9 +508,9 @@ def _blackboard_values(items, root, records: list[NodeParameters], pad: PadGeome
         try:
             key = normalise_key(key)
         except ValueError as exc:
-            raise _option_error(source, str(exc)) from None
+            raise option_error(source, str(exc)) from None
         if key not in read:
-            raise _option_error(source, f"the tree reads no blackboard key {key!r}{did_you_mean(key, read)}; "
+            raise option_error(source, f"the tree reads no blackboard key {key!r}{did_you_mean(key, read)}; "
                                         f"it reads: {', '.join(read) or 'none'}")
         converted = plain(value)
         if uses_pad_units(converted):
@@ -600,27 +575,13 @@ class LoadedTree(py_trees.trees.BehaviourTree):
         super().setup(*args, **kwargs)
 
 
-def _format_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if value is None:
-        return "null"
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    if isinstance(value, (tuple, list)):
-        return "[" + ", ".join(_format_value(v) for v in value) + "]"
-    if value is MISSING:
-        return "required"
-    return str(value)
-
-
 def format_parameters(tree: LoadedTree) -> str:
     """Every node of a loaded tree with its resolved parameters, one row per parameter:
     ``node  type  parameter  value  unit  source`` (``tactile-bt tree FILE --params``)."""
     rows = [("node", "type", "parameter", "value", "unit", "source")]
     for record in tree.node_parameters:
         for name, value in record.values.items():
-            rows.append((record.name, record.type, name, _format_value(value), record.units.get(name) or "",
+            rows.append((record.name, record.type, name, format_parameter(value), record.units.get(name) or "",
                          record.sources[name]))
         if not record.values:
             rows.append((record.name, record.type, "", "", "", ""))

@@ -15,14 +15,13 @@ from __future__ import annotations
 import inspect
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import py_trees
 
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
 from tactile_bt.tree.composites import Parallel
 from tactile_bt.tree.parameters import ParameterInfo, describe_type, parameters_of
-from tactile_bt.tree.registry import MISSING, COMPOSITES
+from tactile_bt.tree.registry import MISSING, COMPOSITES, format_parameter
 
 __all__ = ["NodeDoc", "describe_nodes", "reference_markdown", "update_reference"]
 
@@ -69,20 +68,6 @@ def describe_nodes() -> dict[str, NodeDoc]:
     return out
 
 
-def _format_default(value: Any) -> str:
-    """A parameter default as written in the reference tables (YAML spelling)."""
-    if value is MISSING:
-        return "required"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    if isinstance(value, (tuple, list)):
-        return "[" + ", ".join(_format_default(float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
-                               for v in value) + "]"
-    return str(value)
-
-
 def reference_markdown() -> str:
     """The node reference of docs/trees.md: one table per node type."""
     lines: list[str] = []
@@ -101,7 +86,7 @@ def reference_markdown() -> str:
                 kind_name = kind_name.replace(" | ", " \\| ")
                 meaning = p.doc.replace("|", "\\|")
                 bound = str(p.bound) if p.bound is not None else ""
-                lines.append(f"| `{p.name}` | {kind_name} | {p.unit or ''} | {bound} | {_format_default(p.default)} "
+                lines.append(f"| `{p.name}` | {kind_name} | {p.unit or ''} | {bound} | {format_parameter(p.default)} "
                              f"| {meaning} |")
             lines.append("")
     return "\n".join(lines).rstrip() + "\n"

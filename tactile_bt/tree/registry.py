@@ -25,9 +25,10 @@ import py_trees
 from tactile_bt.errors import PluginError
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
 from tactile_bt.tree.parameters import ParameterInfo
+from tactile_bt.units import format_value
 
 __all__ = ["COMPOSITES", "ENTRY_POINT_GROUP", "NODE_TYPES", "POLICIES", "import_plugin", "load_entry_points",
-           "node_types", "register_node"]
+           "node_types", "register_node", "format_parameter"]
 
 #: The entry-point group through which installed packages add node types (name -> class).
 ENTRY_POINT_GROUP = "tactile_bt.behaviours"
@@ -38,6 +39,14 @@ POLICIES = {
     "success_on_one": lambda sync: py_trees.common.ParallelPolicy.SuccessOnOne(),
 }
 MISSING = inspect.Parameter.empty  # the default of a required parameter
+
+
+def format_parameter(value) -> str:
+    """A parameter's value or default as tree files write it (:func:`tactile_bt.units.format_value`),
+    ``required`` for a required parameter (:data:`MISSING`): ``tree --params`` and docs/trees.md."""
+    return "required" if value is MISSING else format_value(value)
+
+
 _NODES = "list of nodes"  # the "type" of a composite's children
 
 #: Parameters of the composites (py_trees' Sequence, Selector and Parallel).

@@ -9,6 +9,7 @@ from tactile_bt.control.servo import (
     PROJECTIONS,
     ServoCommand,
     feature_error,
+    feature_errors_of,
     inverse_task_jacobian,
     limit_twist,
     projection,
@@ -89,6 +90,24 @@ def test_angular_error_is_taken_modulo_pi():
 
 def test_no_contact_gives_nan_errors():
     assert np.all(np.isnan(feature_error(make_features(in_contact=False))))
+
+
+@pytest.mark.parametrize("components", [(2,), (3,), (0, 1), (0, 1, 2, 3), (3, 0), (1,)])
+def test_a_leaf_s_error_function_gives_feature_error_s_components(components):
+    """The per-cycle error function of a servo leaf's components is Δf of feature_error, and a
+    component not computed (not controlled) is NaN."""
+    f = make_features(cop_px=(9.0, 6.0), orientation=np.deg2rad(-80.0))
+    targets = ((0.001, -0.002), 2000.0, np.pi / 2)
+    full = feature_error(f, *targets)
+    assert_allclose(feature_errors_of(components)(f, targets), [full[c] for c in components], atol=1e-12)
+    partial = feature_errors_of(components, computed=[0])(f, targets)
+    assert_allclose(partial[0], full[components[0]], atol=1e-12)
+    assert np.all(np.isnan(partial[1:]))
+
+
+def test_unknown_feature_component_is_refused():
+    with pytest.raises(ValueError, match="0..3"):
+        feature_errors_of((4,))
 
 
 def test_projection_rejects_non_binary_diagonal():

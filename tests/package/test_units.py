@@ -5,7 +5,7 @@ import math
 import pytest
 
 from tactile_bt.errors import ParameterTypeError
-from tactile_bt.units import TWIST, element_unit, parse_quantity, to_si
+from tactile_bt.units import TWIST, element_unit, format_value, parse_quantity, to_si
 
 
 @pytest.mark.parametrize("text, unit, expected", [
@@ -37,3 +37,14 @@ def test_to_si_for_tables(value, degrees, expected):
         assert to_si(value, degrees) == expected
     else:
         assert to_si(value, degrees) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("value, expected", [
+    (True, "true"), (None, "null"), (2000.0, "2000"), (0.1 + 0.2, "0.3"), (1.0e-4, "0.0001"), (3, "3"),
+    ("2.5 kPa", "2.5 kPa"), ([0.0, 1.0, (0.5, False)], "[0, 1, [0.5, false]]"),
+])
+def test_values_are_shown_as_files_write_them(value, expected):
+    """Parameters in ``tree --params`` and docs/trees.md, grid values in a sweep's summary: YAML
+    spelling, floats without binary noise."""
+    assert format_value(value) == expected
+

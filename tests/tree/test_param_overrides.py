@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from tactile_bt import load_tree
+from tactile_bt.arguments import parse_assignments
 from tactile_bt.tree.behaviours import ForceHold
 from tactile_bt.cli import main
 from tactile_bt.tree.loader import format_parameters
@@ -284,3 +285,14 @@ def test_params_and_blackboard_apply_to_tree_files_only():
     assert tree.blackboard_values == {"/goal/pressure": 1900.0}
     with pytest.raises(ValueError, match="tree file"):
         run_mission(tree, str(SCENE), duration=0.01, params=["a.b=1"])
+
+
+def test_assignments_are_read_without_a_tree():
+    """The command-line part of --param and --blackboard: KEY=VALUE split at the first '=',
+    the value read as YAML, a blackboard reference kept as text, an empty value None."""
+    parsed = parse_assignments([" hold.target_pa = 1.5 kPa", "centre.target_m=[1 mm, 0]", "a.b=@/goal/x", "a.c=",
+                                "a.d=x=y", "a.kp=5e-5"], "--param", "NODE.PARAM")
+    assert [(key, source) for key, source, _ in parsed] == [
+        ("hold.target_pa", "--param hold.target_pa"), ("centre.target_m", "--param centre.target_m"),
+        ("a.b", "--param a.b"), ("a.c", "--param a.c"), ("a.d", "--param a.d"), ("a.kp", "--param a.kp")]
+    assert [value for _, _, value in parsed] == ["1.5 kPa", ["1 mm", 0], "@/goal/x", None, "x=y", 5e-5]

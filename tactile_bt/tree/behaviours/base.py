@@ -20,8 +20,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
-from tactile_bt.control.servo import PID, feature_error, inverse_task_jacobian, per_component
-from tactile_bt.perception.features import wrap_half_pi
+from tactile_bt.control.servo import PID, feature_error, feature_errors_of, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
 
@@ -37,41 +36,6 @@ METRIC_OF_COMPONENT = {
     2: "pressure_pa",
     3: "orientation_rad",
 }
-
-
-def _errors(components: tuple[int, ...], active: list[int]):
-    """The per-cycle error function of a servo leaf: ``(features in contact, targets) -> Δf`` of
-    its ``components`` (:func:`~tactile_bt.control.servo.feature_error`'s formulas), only the
-    ``active`` ones computed, NaN for the others (their PID loops get NaN anyway)."""
-    n = len(components)
-    if len(active) == n:  # every component controlled: one formula for each usual leaf
-        if components == (2,):
-            return lambda f, targets: [targets[1] - f.pressure]
-        if components == (3,):
-            return lambda f, targets: [wrap_half_pi(targets[2] - f.orientation)]
-        if components == (0, 1):
-            def cop_error(f, targets):
-                x, y = f.cop_xy
-                cop = targets[0]
-                return [cop[0] - x, cop[1] - y]
-            return cop_error
-    wanted = {components[j] for j in active}
-
-    def error(f, targets):
-        full = [math.nan] * 4
-        cop, pressure, alpha = targets
-        if 0 in wanted or 1 in wanted:
-            x, y = f.cop_xy
-            full[0], full[1] = cop[0] - x, cop[1] - y
-        if 2 in wanted:
-            full[2] = pressure - f.pressure
-        if 3 in wanted:
-            full[3] = wrap_half_pi(alpha - f.orientation)
-        out = [math.nan] * n
-        for j in active:
-            out[j] = full[components[j]]
-        return out
-    return error
 
 
 def norm(v: np.ndarray) -> float:
@@ -273,7 +237,7 @@ class ServoLeaf(TactileBehaviour):
         self._active = [j for j in range(n) if self._rows_of[j]]
         # Their errors are computed only when read (last_error); their PID loops would run for
         # nothing and see NaN (state held, u = 0).
-        self._error = _errors(tuple(self.components), self._active)
+        self._error = feature_errors_of(self.components, self._active)
         self._no_contact = [math.nan] * n
         self._inputs = None  # features and targets of the last tick, for last_error
         self._set_pad(PadGeometry())  # the mission's pad replaces it when the leaf starts
