@@ -456,6 +456,14 @@ def _record_options(parser: argparse.ArgumentParser) -> None:
                         help="overwrite an existing --record FILE and its FILE.calibration.npz")
 
 
+def _mission_options(parser: argparse.ArgumentParser) -> None:
+    """The options ``run`` and ``live`` share: orientation method, recording, plugins, watching."""
+    _orientation_option(parser)
+    _record_options(parser)
+    _plugin_option(parser)
+    _watch_options(parser)
+
+
 def _plugin_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
                         help="import MODULE (a module name, or the path of a .py file) first, so that the node "
@@ -490,10 +498,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="set a blackboard key the tree reads before it starts, e.g. /goal/pressure=1800 (repeatable)")
     run.add_argument("--out", required=True,
                      help="output directory; the outputs of an earlier run there are replaced")
-    _orientation_option(run)
-    _record_options(run)
-    _plugin_option(run)
-    _watch_options(run)
+    _mission_options(run)
     run.set_defaults(func=_cmd_run)
 
     live = sub.add_parser("live", help="run a tree on a real sensor and arm (or on 'tactile-bt twin'), paced by "
@@ -509,10 +514,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="score the contacts against this scene's ground truth (runs against the twin)")
     live.add_argument("--module", default=None, help="the sensor module (its cell order), overriding the robot file's")
     live.add_argument("--out", required=True, help="output directory")
-    _orientation_option(live)
-    _record_options(live)
-    _plugin_option(live)
-    _watch_options(live)
+    _mission_options(live)
     live.set_defaults(func=_cmd_live)
 
     twin = sub.add_parser("twin", help="serve a scene's simulator in real time as hardware: a ROS 2 arm and a "
