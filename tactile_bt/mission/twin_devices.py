@@ -39,78 +39,83 @@ def raise_priority() -> bool:
     return True
 
 
-class SharedTwinState:
-    """The twin's state in shared memory, each part behind a sequence counter (odd while written).
+class _Slot:
+    """One value in shared memory, double-buffered: the one writer fills the buffer readers are not
+    told to read, then points them to it. A reader never waits for the writer (a writer that the
+    system preempts halfway would stall it); it copies again only when two whole writes passed
+    during its copy."""
 
-    Parts: ``pose`` (4x4, m), ``joints`` (n, rad), ``frame`` (rows x cols raw counts), ``twist``
-    (the newest twist received, 6 floats, and when: ``twist_time``, monotonic s, and ``twists``,
-    how many), ``flags`` (``stall``: the sensor falls silent; ``stop``).
+    def __init__(self, header: np.ndarray, buffers: np.ndarray) -> None:
+        self._header = header  # [index of the buffer to read, writes so far]
+        self._buffers = buffers  # (2, *shape)
+
+    def put(self, value) -> None:
+        spare = 1 - int(self._header[0])
+        self._buffers[spare] = value
+        self._header[1] += 1
+        self._header[0] = spare
+
+    def get(self) -> np.ndarray:
+        while True:
+            writes, current = int(self._header[1]), int(self._header[0])
+            value = self._buffers[current].copy()
+            if int(self._header[1]) - writes < 2:  # the buffer it copied was not written meanwhile
+                return value
+            time.sleep(0)
+
+
+class SharedTwinState:
+    """The twin's state in shared memory, each part a double-buffered :class:`_Slot`.
+
+    Parts: the pose (4x4, m) and the joints (n, rad); the frame (rows x cols raw counts); the
+    newest twist received (6 floats), when it came (monotonic s) and how many came; ``flags``
+    (``[0]`` stall: the sensor falls silent; ``[1]`` stop).
     """
 
     def __init__(self, rows: int, cols: int, n_joints: int, name: str | None = None) -> None:
         self.rows, self.cols, self.n_joints = rows, cols, n_joints
-        n_float = 16 + n_joints + 8
-        size = 32 + 8 * n_float + 32 + 2 * rows * cols  # seq, floats, flags, frame
-        self._shm = shared_memory.SharedMemory(name=name, create=name is None, size=size)
+        n_pose, n_twist = 16 + n_joints, 8
+        layout = [("headers", np.int64, (3, 2)), ("flags", np.int64, (4,)), ("pose", np.float64, (2, n_pose)),
+                  ("twist", np.float64, (2, n_twist)), ("frame", np.uint16, (2, rows, cols))]
+        sizes = [int(np.dtype(dtype).itemsize * np.prod(shape)) for _, dtype, shape in layout]
+        self._shm = shared_memory.SharedMemory(name=name, create=name is None, size=sum(sizes))
         self.name = self._shm.name
-        buf = self._shm.buf
-        self.seq = np.ndarray((4,), dtype=np.int64, buffer=buf)  # pose+joints, frame, twist, flags
-        floats = np.ndarray((n_float,), dtype=np.float64, buffer=buf, offset=32)
-        self.pose = floats[:16].reshape(4, 4)
-        self.joints = floats[16:16 + n_joints]
-        self.twist = floats[16 + n_joints:22 + n_joints]
-        self.twist_time = floats[22 + n_joints:23 + n_joints]
-        self.twists = floats[23 + n_joints:24 + n_joints]
-        self.flags = np.ndarray((4,), dtype=np.int64, buffer=buf, offset=32 + 8 * n_float)
-        self.frame = np.ndarray((rows, cols), dtype=np.uint16, buffer=buf, offset=32 + 8 * n_float + 32)
+        views, offset = {}, 0
+        for (key, dtype, shape), size in zip(layout, sizes):
+            views[key] = np.ndarray(shape, dtype=dtype, buffer=self._shm.buf, offset=offset)
+            offset += size
         if name is None:
-            self.seq[:] = 0
-            self.flags[:] = 0
-            self.twists[0] = 0.0
-
-    # -- writers (one each) --------------------------------------------------------------------
-    def _write(self, index: int, write) -> None:
-        self.seq[index] += 1
-        write()
-        self.seq[index] += 1
-
-    def _read(self, index: int, read):
-        while True:
-            before = int(self.seq[index])
-            value = read()
-            if before % 2 == 0 and int(self.seq[index]) == before:
-                return value
-            time.sleep(0)
+            for view in views.values():
+                view[...] = 0
+        self.flags = views["flags"]
+        self._pose = _Slot(views["headers"][0], views["pose"])
+        self._twist = _Slot(views["headers"][1], views["twist"])
+        self._frame = _Slot(views["headers"][2], views["frame"])
+        self._views = views
 
     def put_pose(self, T: np.ndarray, joints: np.ndarray | None) -> None:
-        def write():
-            self.pose[:] = T
-            if joints is not None:
-                self.joints[:] = joints
-        self._write(0, write)
+        self._pose.put(np.concatenate([np.ravel(T), np.zeros(self.n_joints) if joints is None else joints]))
 
     def get_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._read(0, lambda: (self.pose.copy(), self.joints.copy()))
+        v = self._pose.get()
+        return v[:16].reshape(4, 4), v[16:]
 
     def put_frame(self, raw: np.ndarray) -> None:
-        self._write(1, lambda: np.copyto(self.frame, raw, casting="unsafe"))
+        self._frame.put(raw)
 
     def get_frame(self) -> np.ndarray:
-        return self._read(1, self.frame.copy)
+        return self._frame.get()
 
     def put_twist(self, twist: np.ndarray, when: float) -> None:
-        def write():
-            self.twist[:] = twist
-            self.twist_time[0] = when
-            self.twists[0] += 1
-        self._write(2, write)
+        count = self._twist.get()[7] + 1
+        self._twist.put(np.concatenate([twist, [when, count]]))
 
     def get_twist(self) -> tuple[np.ndarray, float, int]:
-        return self._read(2, lambda: (self.twist.copy(), float(self.twist_time[0]), int(self.twists[0])))
+        v = self._twist.get()
+        return v[:6], float(v[6]), int(v[7])
 
     def close(self, unlink: bool = False) -> None:
-        for name in ("seq", "pose", "joints", "twist", "twist_time", "twists", "flags", "frame"):
-            setattr(self, name, None)
+        self._pose = self._twist = self._frame = self.flags = self._views = None
         self._shm.close()
         if unlink:
             self._shm.unlink()
