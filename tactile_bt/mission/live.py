@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from tactile_bt import defaults
+from tactile_bt.contacts.cloud import ContactCloud
 from tactile_bt.control.spatial import body_to_spatial
 from tactile_bt.mission.robot_file import RobotFile, load_robot_file
 from tactile_bt.mission.twin_devices import raise_priority
@@ -180,7 +181,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     _warm_perception(calibration, pad, orientation_method)
     stack = contextlib.ExitStack()
     status, reason, t = "completed", "", 0.0
-    supervisor = robot_obj = None
+    supervisor = robot_obj = loop = None
     switch = sys.getswitchinterval()
     sys.setswitchinterval(5e-4)  # the sensor's reader and ROS get their turn within a frame
     prioritised = raise_priority()
@@ -265,7 +266,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
             stack.close()
             if robot_obj is not None and robot_backend is None:
                 robot_obj.close()
-            result = finish_mission(tree, log, getattr(locals().get("loop"), "contacts", None) or _empty_cloud(),
+            result = finish_mission(tree, log, loop.contacts if loop is not None else ContactCloud(),
                                     status, reason, wall_start, t, scene=scene,
                                     warnings=notes, supervision=None if supervisor is None else supervisor.summary())
             result.summary.realtime = realtime_summary(realtime, dt) if realtime.sent else None
@@ -295,9 +296,3 @@ def _warm_perception(calibration, pad, orientation_method: str) -> None:
         for method in (None, orientation_method):
             extract(image, defaults.CONTACT_THRESHOLD_N, method, pad=pad)
     calibration.force_from_raw(np.zeros(pad.shape, dtype=np.uint16))
-
-
-def _empty_cloud():
-    from tactile_bt.contacts.cloud import ContactCloud
-
-    return ContactCloud()
