@@ -26,12 +26,7 @@ def _load_plugins(args) -> tuple[str, ...]:
     from tactile_bt.tree.registry import import_plugin, load_entry_points
 
     load_entry_points()
-    specs = []
-    for spec in getattr(args, "plugin", None) or ():
-        import_plugin(spec)
-        is_file = spec.endswith(".py") or "/" in spec or "\\" in spec
-        specs.append(str(Path(spec).resolve()) if is_file else spec)
-    return tuple(specs)
+    return tuple(import_plugin(spec) for spec in getattr(args, "plugin", None) or ())
 
 
 def _shipped(given: str) -> str:

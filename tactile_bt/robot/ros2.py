@@ -187,7 +187,6 @@ class Ros2Robot:
 
             self._subscriptions.append(node.create_subscription(JointStateMessage, settings.joint_state_topic,
                                                                 self._on_joints, 10))
-        self._stopped = False
 
     # -- inputs ---------------------------------------------------------------------------------
     def _on_pose(self, msg) -> None:
@@ -235,11 +234,9 @@ class Ros2Robot:
         with self._lock:
             point = self._command_point
         self._publish(spatial_to_point(v, point))
-        self._stopped = False
 
     def stop(self) -> None:
         self._publish(np.zeros(6))
-        self._stopped = True
 
     def joint_state(self) -> JointState | None:
         with self._lock:

@@ -177,9 +177,12 @@ def load_entry_points(force: bool = False) -> list[str]:
     return added
 
 
-def import_plugin(spec: str) -> None:
+def import_plugin(spec: str) -> str:
     """Import a module that registers node types (``--plugin``): a module name (looked up on the
     import path and in the current folder) or the path of a ``.py`` file.
+
+    Returns the plugin as another process (a Dask worker) imports it: a file as its absolute path,
+    a module by its name.
 
     Raises
     ------
@@ -198,7 +201,7 @@ def import_plugin(spec: str) -> None:
                 f"tactile_bt_plugin_{path.stem}"
             loaded = sys.modules.get(path.stem)
             if loaded is not None and getattr(loaded, "__file__", None) and Path(loaded.__file__).resolve() == path.resolve():
-                return
+                return str(path.resolve())
             module_spec = importlib.util.spec_from_file_location(name, path)
             module = importlib.util.module_from_spec(module_spec)
             sys.modules[name] = module
@@ -218,3 +221,4 @@ def import_plugin(spec: str) -> None:
                           "or the path of a .py file)") from exc
     except Exception as exc:
         raise PluginError(f"--plugin {spec}: importing it failed: {type(exc).__name__}: {exc}") from exc
+    return str(Path(spec).resolve()) if as_file else spec
