@@ -9,7 +9,9 @@ Pipeline of :func:`extract`:
 1. Tactels that are NaN, infinite or negative are replaced by 0 and counted.
 2. Binarise ``image > threshold`` (strictly greater) and label connected components with
    8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force, then the
-   region whose first tactel comes first in row-major order).
+   region whose first tactel comes first in row-major order) — the paper's rule — or, with
+   ``near_px``, the region that comes nearest that point (the followed line where it was last
+   seen, so that another line beside it is not taken for it; ties: the larger region).
 3. Force ``f = sum f_ij`` and the force-weighted centre of pressure over ``R`` (Eq. 1),
    pressure ``p = f / (|R| pitch^2)`` in Pa (Eq. 2), with the pitch of the pad
    (:class:`~tactile_bt.sense.geometry.PadGeometry`) the image comes from.
@@ -270,6 +272,7 @@ def extract(
     pad: PadGeometry | None = None,
     *,
     min_anisotropy: float = MIN_ANISOTROPY,
+    near_px: tuple[float, float] | None = None,
 ) -> ContactFeatures:
     """Extract contact force, pressure, centre of pressure and orientation from a force image.
 
@@ -288,6 +291,9 @@ def extract(
         (``PadGeometry()`` for a 16×16 image).
     min_anisotropy : float
         Minimum covariance anisotropy ``(l1 - l2) / (l1 + l2)`` for a defined orientation.
+    near_px : (float, float), optional
+        Region selection: None keeps the largest region; a point ``[column, row]`` (tactels)
+        keeps the region with the tactel nearest to it.
 
     Returns
     -------
@@ -323,8 +329,9 @@ def extract(
     clean = np.empty(shape)
     mask = np.empty(shape, dtype=bool)
     work = np.empty(3 * img.size + 1, dtype=np.int32)
+    near_x, near_y = (math.nan, math.nan) if near_px is None else (float(near_px[0]), float(near_px[1]))
     n_bad, changed, area, f, mx, my, mxx, mxy, myy = largest_region(
-        img, float(threshold), _clip_limit(shape), clean, mask, work)
+        img, float(threshold), _clip_limit(shape), clean, mask, work, near_x, near_y)
     if changed:
         img = clean
     if not (area > 0 and f > 0.0 and math.isfinite(f)):

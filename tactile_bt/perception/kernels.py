@@ -5,7 +5,8 @@ where numpy would spend most of its time in per-call overhead on 256 values:
 
 * :func:`largest_region` — sanitise the image, label the regions above the threshold with
   8-connectivity, pick the largest (ties: larger force, then the one met first in row-major
-  order, as ``scipy.ndimage.label`` numbers them) and sum its moments ``[1, x, y, x², xy, y²]``;
+  order, as ``scipy.ndimage.label`` numbers them), or the one that comes nearest a given point,
+  and sum its moments ``[1, x, y, x², xy, y²]``;
 * :func:`windowed_centroid` — the force-weighted centroid of a region under a triangular window
   along an axis (the local contact point of an elongated contact).
 
@@ -27,8 +28,9 @@ __all__ = ["largest_region", "windowed_centroid"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def largest_region(img, threshold, limit, clean, mask, work):
-    """Largest 8-connected region of ``img > threshold`` and its force moments.
+def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y):
+    """Largest 8-connected region of ``img > threshold`` (or the one nearest a point) and its
+    force moments.
 
     Parameters
     ----------
@@ -45,6 +47,10 @@ def largest_region(img, threshold, limit, clean, mask, work):
         Output: the largest region (all False without one).
     work : int32[::1]
         Scratch space of ``3 rows cols + 1`` entries: labels, flood-fill stack, region sizes.
+    near_x, near_y : float
+        NaN: the largest region wins. Otherwise the point ``[column, row]`` (tactels) whose
+        nearest region wins: the region with the tactel closest to it (ties: the larger region,
+        then the one met first in row-major order).
 
     Returns
     -------
@@ -76,6 +82,8 @@ def largest_region(img, threshold, limit, clean, mask, work):
     best = 0
     best_size = 0
     tie = False
+    nearest = near_x == near_x and near_y == near_y
+    best_d2 = np.inf
     for i0 in range(rows):
         for j0 in range(cols):
             p = i0 * cols + j0
@@ -86,12 +94,18 @@ def largest_region(img, threshold, limit, clean, mask, work):
             work[n] = p
             top = 1
             size = 0
+            d2 = np.inf
             while top > 0:
                 top -= 1
                 size += 1
                 q = work[n + top]
                 i = q // cols
                 j = q - i * cols
+                if nearest:
+                    dx = j - near_x
+                    dy = i - near_y
+                    if dx * dx + dy * dy < d2:
+                        d2 = dx * dx + dy * dy
                 for ni in range(max(i - 1, 0), min(i + 2, rows)):
                     for nj in range(max(j - 1, 0), min(j + 2, cols)):
                         r = ni * cols + nj
@@ -100,7 +114,10 @@ def largest_region(img, threshold, limit, clean, mask, work):
                             work[n + top] = r
                             top += 1
             work[2 * n + count] = size
-            if size > best_size:
+            if nearest:
+                if d2 < best_d2 or (d2 == best_d2 and size > best_size):
+                    best, best_size, best_d2 = count, size, d2
+            elif size > best_size:
                 best, best_size, tie = count, size, False
             elif size == best_size:
                 tie = True

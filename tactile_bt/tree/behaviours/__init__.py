@@ -9,6 +9,7 @@ Layer: tree.
 
 from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour
 from tactile_bt.tree.behaviours.cable import CableEnd
+from tactile_bt.tree.behaviours.cable_recovery import Backtrack
 from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
@@ -36,6 +37,7 @@ LEAVES = {
     "stripe_end": StripeEnd,
     "coverage_stalled": CoverageStalled,
     "cable_end": CableEnd,
+    "backtrack": Backtrack,
     "frontier_guidance": FrontierGuidance,
     "table_clearance": TableClearance,
     "table_offset": TableOffset,
@@ -73,6 +75,7 @@ __all__ = [
     "StripeEnd",
     "CoverageStalled",
     "CableEnd",
+    "Backtrack",
     "FrontierGuidance",
     "TableClearance",
     "TableOffset",

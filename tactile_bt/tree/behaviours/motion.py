@@ -12,6 +12,7 @@ import numpy as np
 from py_trees.common import Access, Status
 
 from tactile_bt import defaults
+from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import read
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, check_bound, node_label, normalise_key
@@ -104,6 +105,16 @@ class Approach(TactileBehaviour):
 class GuidedSlide(TactileBehaviour):
     """Add the external guidance twist ``V_ext`` (sensor frame) of the paper's Eq. 3.
 
+    **Guidance scaling.** With ``slow_turn_rad`` or ``slow_offset_m`` set, the twist is scaled
+    each cycle by ``1 / (1 + |e_a| / slow_turn_rad + |e_l| / slow_offset_m)``, bounded below by
+    ``min_scale``: ``e_a`` is the angle between the contact's major axis and the direction of
+    travel (the twist's linear part in the pad plane; modulo pi), ``e_l`` the centre of
+    pressure's distance from the pad centre across the travel (both from the smoothed
+    features). Where a followed line turns in the pad or bends (the centre of pressure of a bent
+    line sits off it on the chord), the pad slows and the aligning servos keep up; on straight
+    parts it speeds up again, by at most ``speedup_per_s`` of the full twist per second. A
+    contact without a defined axis slides at ``min_scale``.
+
     The twist is constant (``twist``) or read each cycle from the blackboard key ``twist_key``
     (e.g. ``/planner/twist``, written by a planner; a missing key is an error when the leaf
     starts). A ``twist`` given as a blackboard reference (``"@/key"``) is instead read once,
@@ -124,11 +135,23 @@ class GuidedSlide(TactileBehaviour):
         Succeed after this linear travel (m; 0 = unlimited).
     duration_s : float
         Succeed after this mission time (s; 0 = unlimited).
+    slow_turn_rad : float
+        Angle of the contact's axis to the travel at which the guidance halves (rad; 0 = the
+        angle does not slow it).
+    slow_offset_m : float
+        Distance of the centre of pressure from the pad centre, across the travel, at which the
+        guidance halves (m; 0 = the offset does not slow it).
+    min_scale : float
+        Lowest share of the twist the scaling leaves (0 < min_scale <= 1).
+    speedup_per_s : float
+        Largest growth of the scale per second of mission time (1/s).
     """
 
-    fixed_parameters = frozenset({"name", "twist_key"})
+    fixed_parameters = frozenset({"name", "twist_key", "slow_turn_rad", "slow_offset_m"})
     #: ``twist`` is signed (its sign is the direction) and only has to be finite.
-    parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE}
+    parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE, "slow_turn_rad": NON_NEGATIVE,
+                        "slow_offset_m": NON_NEGATIVE, "min_scale": between(0.0, 1.0, low_open=True),
+                        "speedup_per_s": POSITIVE}
     parameter_units = {"twist": TWIST}
     #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
     key_parameters = {"twist_key": "twist"}
@@ -141,8 +164,19 @@ class GuidedSlide(TactileBehaviour):
         require_contact: bool = True,
         distance_m: float = 0.0,
         duration_s: float = 0.0,
+        slow_turn_rad: float = 0.0,
+        slow_offset_m: float = 0.0,
+        min_scale: float = 0.25,
+        speedup_per_s: float = 1.0,
     ) -> None:
         super().__init__(name)
+        self.slow_turn_rad = float(slow_turn_rad)
+        self.slow_offset_m = float(slow_offset_m)
+        self.min_scale = float(min_scale)
+        self.speedup_per_s = float(speedup_per_s)
+        if self.slow_turn_rad > 0 or self.slow_offset_m > 0:
+            self.uses = frozenset({"orientation", "cop"})
+        self.scale = 1.0
         self.set_parameter("twist", twist)
         self.twist_key = twist_key
         if twist_key:
@@ -169,6 +203,7 @@ class GuidedSlide(TactileBehaviour):
     def initialise(self) -> None:
         self.travelled = 0.0
         self._start = self.now
+        self.scale = self.min_scale
         if self.twist_key and not self._external.exists(self._key):
             raise BlackboardReferenceError(f"{self.name}: blackboard key {self._key!r} (twist_key) is not set; "
                            "write the twist there before the leaf starts")
@@ -181,7 +216,27 @@ class GuidedSlide(TactileBehaviour):
 
     def describe(self) -> str:
         """Travel so far while sliding."""
+        if self.uses:
+            return f"sliding, {self.travelled * 1e3:.1f} mm, at {self.scale:.0%} of the guidance"
         return f"sliding, {self.travelled * 1e3:.1f} mm"
+
+    def _guidance_scale(self, twist) -> float:
+        """The scale of this cycle (see the class docstring); updates :attr:`scale`."""
+        f = self.features
+        travel = math.atan2(twist[1], twist[0])
+        angle = f.orientation
+        if angle != angle:
+            target = self.min_scale
+        else:
+            slowing = 0.0
+            if self.slow_turn_rad > 0:
+                slowing += abs(wrap_half_pi(angle - travel)) / self.slow_turn_rad
+            if self.slow_offset_m > 0:
+                x, y = f.cop_xy
+                slowing += abs(y * math.cos(travel) - x * math.sin(travel)) / self.slow_offset_m
+            target = max(self.min_scale, 1.0 / (1.0 + slowing))
+        self.scale = min(target, self.scale + self.speedup_per_s * self.dt)
+        return self.scale
 
     def update(self) -> Status:
         if self.distance_m > 0 and self.travelled >= self.distance_m:
@@ -202,6 +257,10 @@ class GuidedSlide(TactileBehaviour):
             speed = math.sqrt(twist[0] * twist[0] + twist[1] * twist[1] + twist[2] * twist[2])
         else:
             twist, speed = self._twist, self._speed
+        if self.uses:
+            scale = self._guidance_scale(twist)
+            twist = [v * scale for v in twist]
+            speed *= scale
         self.command.add(self.name, twist)
         self.travelled += speed * self.dt
         self._feedback = None
