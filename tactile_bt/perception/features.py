@@ -350,8 +350,13 @@ def extract(
             angle = hough_orientation(img, mask)
     # in_contact, force, area, pressure, cop_px, orientation, method, mask, invalid_tactels, pad,
     # image: positional, a third cheaper than by keyword, once per cycle
-    return ContactFeatures(True, f, area, f / (area * pitch * pitch), np.array((cx, cy)), angle, method, mask, n_bad,
-                           pad, img)
+    pressure = f / (area * pitch * pitch)
+    if near_px is not None:
+        loaded = img > threshold
+        others = int(np.count_nonzero(loaded)) - area
+        if others > 0:  # the pad's load over every region: what a force hold must bound
+            pressure = float(img[loaded].sum()) / ((area + others) * pitch * pitch)
+    return ContactFeatures(True, f, area, pressure, np.array((cx, cy)), angle, method, mask, n_bad, pad, img)
 
 
 def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:
