@@ -2,10 +2,13 @@
 
 While the pad slides along a cable, the cable's imprint is a line through the pad centre along
 the direction of travel that crosses the pad from border to border (centring and edge alignment
-keep it there). Each cycle the leaf judges whether the contact still looks like that:
+keep it there). Each cycle the leaf judges whether the contact still looks like that, from the part of it within
+``window_m`` of the pad centre along the travel (a bend ahead of the pad centre is not yet the
+pad's business):
 
-* **a line**: its tactels are spread along one axis (anisotropy at least ``min_anisotropy``) and
-  cover at most ``max_area_ratio`` of the pad — otherwise a ``patch``;
+* **a line**: its tactels are spread along one axis (across it at most ``max_width_m`` wide,
+  the width of a uniform band with the same spread) and cover at most ``max_area_ratio`` of the
+  pad — otherwise a ``patch``;
 * **along the travel**: its orientation is within ``max_turn_rad`` of the direction of travel —
   otherwise ``turned``;
 * **the same line**: its axis moved less than ``max_jump_m`` across the pad since the last
@@ -85,6 +88,15 @@ def _moment_basis(shape: tuple[int, int]) -> np.ndarray:
     return np.stack((np.ones_like(x), x, y, x * x, y * y, x * y))
 
 
+@functools.lru_cache(maxsize=16)
+def _windowed_basis(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad: float,
+                    window_px: float) -> np.ndarray:
+    """:func:`_moment_basis` with the tactels farther than ``window_px`` from the pad centre
+    along ``direction_rad`` left out (their columns zero)."""
+    inside = np.abs(_along(shape, centre_px, direction_rad)) <= window_px
+    return _moment_basis(shape) * inside
+
+
 def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: float) -> float:
     """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
     ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
@@ -98,21 +110,27 @@ def _reach(along: np.ndarray, mask: np.ndarray) -> float:
     return float(ahead.max()) + 0.5 if ahead.size else -math.inf
 
 
-def _shape(mask: np.ndarray) -> tuple[float, float, float, float]:
-    """Anisotropy ``(l1 - l2) / (l1 + l2)`` (1 for a line, 0 for a disc), axis angle (rad, from
-    +x towards +y) and centroid ``(x, y)`` (tactels) of the tactel positions of ``mask`` (second
-    moments by one matrix product, exact sums of small integers: this runs every control cycle)."""
-    n, sum_x, sum_y, sum_xx, sum_yy, sum_xy = (_moment_basis(mask.shape) @ mask.ravel().astype(float)).tolist()
+def _shape(mask: np.ndarray, basis: np.ndarray | None = None) -> tuple[float, float, float, float]:
+    """Width ``sqrt(12 l2)`` across the major axis (tactels; the width of a uniform band with the
+    same spread; inf without a major axis), axis angle (rad, from +x towards +y) and centroid
+    ``(x, y)`` (tactels) of the tactel positions of ``mask`` (second
+    moments by one matrix product with ``basis``, default :func:`_moment_basis`; exact sums of
+    small integers: this runs every control cycle)."""
+    if basis is None:
+        basis = _moment_basis(mask.shape)
+    n, sum_x, sum_y, sum_xx, sum_yy, sum_xy = (basis @ mask.ravel().astype(float)).tolist()
     if n < 3:
-        return 1.0, math.nan, math.nan, math.nan
+        return math.inf, math.nan, math.nan, math.nan
     mx, my = sum_x / n, sum_y / n
     sxx = sum_xx / n - mx * mx
     syy = sum_yy / n - my * my
     sxy = sum_xy / n - mx * my
     total = sxx + syy
-    if total <= 0:
-        return 0.0, math.nan, mx, my
-    return math.hypot(sxx - syy, 2.0 * sxy) / total, 0.5 * math.atan2(2.0 * sxy, sxx - syy), mx, my
+    spread = math.hypot(sxx - syy, 2.0 * sxy)
+    if total <= 0 or spread <= 0:
+        return math.inf, math.nan, mx, my
+    minor = max(0.5 * (total - spread), 0.0)
+    return math.sqrt(12.0 * minor), 0.5 * math.atan2(2.0 * sxy, sxx - syy), mx, my
 
 
 class CableEnd(TactileBehaviour):
@@ -120,8 +138,8 @@ class CableEnd(TactileBehaviour):
     RUNNING while the line goes on.
 
     The defaults leave wide margins to what following shows on the shipped cables (from 2 to
-    6 mm thick, soft and stiff): anisotropy at least 0.82, the line within 3° of the travel and
-    0.7 px of the centre, reaching the leading border.
+    6 mm thick, soft and stiff): 3 to 4 tactels wide, within 3° of the travel and 0.7 px of the
+    centre, reaching the leading border.
 
     Parameters
     ----------
@@ -138,11 +156,14 @@ class CableEnd(TactileBehaviour):
         Largest distance of the line's axis from the pad centre (m).
     max_turn_rad : float
         Largest angle between the line and the direction of travel (rad).
+    window_m : float
+        Half-length of the part of the contact along the travel, around the pad centre, that is
+        judged a line (m).
     max_jump_m : float
         Largest move of the line's axis across the pad from one cycle to the next (m); more is
         another line in its place.
-    min_anisotropy : float
-        Below this the contact is no line: ``(l1 - l2) / (l1 + l2)`` of its tactel positions.
+    max_width_m : float
+        Above this width across its axis the contact is no line (m).
     max_area_ratio : float
         Above this share of the pad's tactels the contact is no line.
     lost_s : float
@@ -169,14 +190,14 @@ class CableEnd(TactileBehaviour):
     uses = frozenset({"pressure", "orientation"})
     reports_success = True
     parameter_bounds = {"reach_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "max_turn_rad": between(0.0, math.pi / 2),
-                        "max_jump_m": POSITIVE, "min_anisotropy": between(0.0, 1.0),
+                        "max_jump_m": POSITIVE, "window_m": POSITIVE, "max_width_m": POSITIVE,
                         "max_area_ratio": between(0.0, 1.0, low_open=True), "lost_s": NON_NEGATIVE,
                         "dwell_s": NON_NEGATIVE, "end_memory_m": NON_NEGATIVE}
     fixed_parameters = frozenset({"name", "on_line_key", "path_key", "lost_key"})
 
     def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
-                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(10.0), max_jump_m: float = 0.008,
-                 min_anisotropy: float = 0.7, max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
+                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(10.0), window_m: float = 0.02, max_jump_m: float = 0.008,
+                 max_width_m: float = 0.03, max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
                  end_memory_m: float = 0.02, keep_line: bool = True, on_line_key: str = "/cable/on_line",
                  path_key: str = "/cable/path", lost_key: str = "/cable/lost") -> None:
         super().__init__(name)
@@ -185,7 +206,8 @@ class CableEnd(TactileBehaviour):
         self.max_offset_m = float(max_offset_m)
         self.max_turn_rad = float(max_turn_rad)
         self.max_jump_m = float(max_jump_m)
-        self.min_anisotropy = float(min_anisotropy)
+        self.window_m = float(window_m)
+        self.max_width_m = float(max_width_m)
         self.max_area_ratio = float(max_area_ratio)
         self.lost_s = float(lost_s)
         self.dwell_s = float(dwell_s)
@@ -202,7 +224,7 @@ class CableEnd(TactileBehaviour):
         self._lost_since: float | None = None
         self._judged_since: float | None = None  # the first verdict of the current window
         self.reach_px = math.nan
-        self._cache = (None, math.nan, None, None)  # (pad, direction, tactels along it, leading border)
+        self._cache = (None, math.nan, math.nan, None, None, None)  # pad, direction, window; along, leading, basis
         self._path: PadPath | None = None
         self._hint: tuple[float, float] | None = None
         self._offset_px = math.nan  # signed distance of the last line's axis from the pad centre
@@ -244,8 +266,15 @@ class CableEnd(TactileBehaviour):
         pad = f.pad
         if f.area > self.max_area_ratio * pad.tactels:
             return "patch"
-        anisotropy, axis, mx, my = _shape(f.mask)
-        if anisotropy < self.min_anisotropy or not math.isfinite(axis):
+        cached_pad, direction, window, along, leading, basis = self._cache
+        if pad is not cached_pad or direction != self.direction_rad or window != self.window_m:
+            direction, window = self.direction_rad, self.window_m
+            key = (pad.shape, pad.centre_px, float(direction))
+            along, leading = _along(*key), _leading_border(*key)
+            basis = _windowed_basis(*key, window / pad.pitch)
+            self._cache = (pad, direction, window, along, leading, basis)
+        width, axis, mx, my = _shape(f.mask, basis)
+        if width * pad.pitch > self.max_width_m or not math.isfinite(axis):
             return "patch"
         if abs(wrap_half_pi(axis - self.direction_rad)) > self.max_turn_rad:
             return "turned"
@@ -257,12 +286,6 @@ class CableEnd(TactileBehaviour):
             return "jumped"
         if abs(offset) * pad.pitch > self.max_offset_m:
             return "offset"
-        cached_pad, direction, along, leading = self._cache
-        if pad is not cached_pad or direction != self.direction_rad:
-            direction = self.direction_rad
-            along = _along(pad.shape, pad.centre_px, float(direction))
-            leading = _leading_border(pad.shape, pad.centre_px, float(direction))
-            self._cache = (pad, direction, along, leading)
         along_axis = (cx - mx) * ux + (cy - my) * uy
         self._hint = (mx + along_axis * ux, my + along_axis * uy)
         self.reach_px = _reach(along, f.mask)
