@@ -97,12 +97,12 @@ class ControlLoop:
             if b.status == Status.RUNNING:
                 method = self.orientation_method
                 break
-        near = None
+        near = window = None
         for b in self._region_leaves:
             if b.status == Status.RUNNING:
-                near = b.region_hint()
+                near, window = b.region_hint()
                 break
-        f_raw = extract(image, self.threshold, method, pad=self.pad, near_px=near)
+        f_raw = extract(image, self.threshold, method, pad=self.pad, near_px=near, window_px=window)
         f = self.smoother(f_raw)
         if clock:
             t1 = clock()

@@ -28,7 +28,7 @@ __all__ = ["largest_region", "windowed_centroid"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y):
+def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, along_x, along_y, half_length):
     """Largest 8-connected region of ``img > threshold`` (or the one nearest a point) and its
     force moments.
 
@@ -51,13 +51,19 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y):
         NaN: the largest region wins. Otherwise the point ``[column, row]`` (tactels) whose
         nearest region wins: the region with the tactel closest to it (ties: the larger region,
         then the one met first in row-major order).
+    along_x, along_y, half_length : float
+        The moments (not the mask, the area or ``m1``) count only the region's tactels within
+        ``half_length`` tactels of ``(near_x, near_y)`` along the unit vector ``(along_x,
+        along_y)`` (the part of a line around a point on it); ``inf``: the whole region.
 
     Returns
     -------
     tuple
-        ``(invalid, changed, area, m1, mx, my, mxx, mxy, myy)``: the number of NaN / infinite /
-        negative tactels, whether ``clean`` differs from ``img``, the region's tactel count and
-        its sums of ``f``, ``f x``, ``f y``, ``f x²``, ``f xy``, ``f y²`` (x = column, y = row).
+        ``(invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded)``: the number of
+        NaN / infinite / negative tactels, whether ``clean`` differs from ``img``, the region's
+        tactel count, its force, and its sums of ``f``, ``f x``, ``f y``, ``f x²``, ``f xy``,
+        ``f y²`` (x = column, y = row) within the window; the force and tactel count of every
+        region together (the pad's load).
     """
     rows, cols = img.shape
     n = rows * cols
@@ -135,23 +141,32 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y):
                 if force > best_force:
                     best, best_force = k, force
     area = 0
-    m1 = mx = my = mxx = mxy = myy = 0.0
+    loaded = 0
+    load = m1 = mw = mx = my = mxx = mxy = myy = 0.0
+    windowed = half_length < np.inf
     for i in range(rows):
         y = float(i)
         for j in range(cols):
-            inside = best > 0 and work[i * cols + j] == best
+            label = work[i * cols + j]
+            inside = best > 0 and label == best
             mask[i, j] = inside
+            if label > 0:
+                loaded += 1
+                load += clean[i, j]
             if inside:
                 x = float(j)
                 v = clean[i, j]
                 area += 1
                 m1 += v
+                if windowed and abs((x - near_x) * along_x + (y - near_y) * along_y) > half_length:
+                    continue
+                mw += v
                 mx += v * x
                 my += v * y
                 mxx += v * (x * x)
                 mxy += v * (x * y)
                 myy += v * (y * y)
-    return invalid, changed, area, m1, mx, my, mxx, mxy, myy
+    return invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

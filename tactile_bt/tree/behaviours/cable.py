@@ -32,7 +32,9 @@ Every cycle the leaf writes whether the contact is the followed line to ``on_lin
 the path record ``path_key`` (:class:`~tactile_bt.tree.behaviours.cable_recovery.PadPath`), and
 with ``keep_line`` asks feature extraction for the contact region nearest to where the line was
 last seen (:meth:`CableEnd.region_hint`) instead of the largest one, so that another strand
-under the pad does not replace the followed one.
+under the pad does not replace the followed one, and for the centre of pressure and orientation
+of the line's part within ``window_m`` of that point, so that the servos follow the line where
+the pad centre is, not a bend ahead of it.
 
 Layer: tree.
 """
@@ -158,7 +160,9 @@ class CableEnd(TactileBehaviour):
         Largest angle between the line and the direction of travel (rad).
     window_m : float
         Half-length of the part of the contact along the travel, around the pad centre, that is
-        judged a line (m).
+        judged a line (m); with ``keep_line`` also that of the part of the followed line whose
+        centre of pressure and orientation the servos see (a bend ahead of it does not turn
+        the pad before its centre gets there).
     max_jump_m : float
         Largest move of the line's axis across the pad from one cycle to the next (m); more is
         another line in its place.
@@ -196,7 +200,7 @@ class CableEnd(TactileBehaviour):
     fixed_parameters = frozenset({"name", "on_line_key", "path_key", "lost_key"})
 
     def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
-                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(10.0), window_m: float = 0.02, max_jump_m: float = 0.008,
+                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(20.0), window_m: float = 0.02, max_jump_m: float = 0.008,
                  max_width_m: float = 0.03, max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
                  end_memory_m: float = 0.02, keep_line: bool = True, on_line_key: str = "/cable/on_line",
                  path_key: str = "/cable/path", lost_key: str = "/cable/lost") -> None:
@@ -227,10 +231,17 @@ class CableEnd(TactileBehaviour):
         self._cache = (None, math.nan, math.nan, None, None, None)  # pad, direction, window; along, leading, basis
         self._path: PadPath | None = None
         self._hint: tuple[float, float] | None = None
+        self._window_px: tuple[float, float, float] | None = None
         self._offset_px = math.nan  # signed distance of the last line's axis from the pad centre
         self._end_in_view_s = -math.inf  # path length at which a settled line's end was last in view
         self._jumped_s = -math.inf
         self._resumed_s = 0.0  # path length when the leaf (re)started
+
+    def setup(self, **kwargs) -> None:
+        """A new mission: a new, empty path record and no loss (the blackboard outlives missions)."""
+        super().setup(**kwargs)
+        write(self.path_key, PadPath())
+        write(self.lost_key, None)
 
     def initialise(self) -> None:
         self._window.clear()
@@ -252,13 +263,18 @@ class CableEnd(TactileBehaviour):
         self._end_in_view_s = -math.inf
         self._jumped_s = -math.inf
 
-    def region_hint(self) -> tuple[float, float] | None:
-        """Where feature extraction should look for the followed line: the point of its last
-        seen axis nearest the pad centre (tactels, ``[column, row]``); the pad centre before the
-        line was seen; None with ``keep_line`` off (the largest region)."""
+    def region_hint(self) -> tuple[tuple[float, float] | None, tuple[float, float, float] | None]:
+        """Where feature extraction should look for the followed line (its ``near_px`` and
+        ``window_px``): the point of the line's last seen axis nearest the pad centre (tactels,
+        ``[column, row]``; the pad centre before the line was seen), and the window of
+        ``window_m`` along that axis whose part of the line the servos see; ``(None, None)``
+        with ``keep_line`` off (the largest region, the whole of it)."""
         if not self.keep_line:
-            return None
-        return self._hint if self._hint is not None else self.pad.centre_px
+            return None, None
+        if self._hint is None:
+            pad = self.pad
+            return pad.centre_px, (math.cos(self.direction_rad), math.sin(self.direction_rad), self.window_m / pad.pitch)
+        return self._hint, self._window_px
 
     def judge(self, f) -> str:
         """Why the contact ``f`` is not the followed line (a short word, see the module
@@ -276,8 +292,10 @@ class CableEnd(TactileBehaviour):
         width, axis, mx, my = _shape(f.mask, basis)
         if width * pad.pitch > self.max_width_m or not math.isfinite(axis):
             return "patch"
-        if abs(wrap_half_pi(axis - self.direction_rad)) > self.max_turn_rad:
+        turn = wrap_half_pi(axis - self.direction_rad)
+        if abs(turn) > self.max_turn_rad:
             return "turned"
+        axis = self.direction_rad + turn  # pointing along the travel: the offset's sign is kept
         cx, cy = pad.centre_px
         ux, uy = math.cos(axis), math.sin(axis)
         offset = (mx - cx) * uy - (my - cy) * ux  # signed distance of the axis from the centre (tactels)
@@ -288,6 +306,7 @@ class CableEnd(TactileBehaviour):
             return "offset"
         along_axis = (cx - mx) * ux + (cy - my) * uy
         self._hint = (mx + along_axis * ux, my + along_axis * uy)
+        self._window_px = (ux, uy, self.window_m / pad.pitch)
         self.reach_px = _reach(along, f.mask)
         if not f.mask.ravel()[leading].any():
             self._end_in_view_s = self._path.length_m
