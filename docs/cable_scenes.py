@@ -135,7 +135,7 @@ def check(scene_file: Path, seed: int = 0, budget_factor: float = 2.0) -> dict:
     if r.status == "success":
         verdict = "true success" if goals else "FALSE SUCCESS"
     else:
-        verdict = "honest failure" if "lost" in r.reason or "joint" in r.reason else "failure"
+        verdict = "honest failure" if any(w in r.reason for w in ("lost", "stalled", "joint")) else "failure"
     cable = scene.cable
     stiffness = next(o for o in scene.objects if o is cable).stiffness
     reason = r.reason.removeprefix("cable_end: ").removeprefix("end of cable: ")

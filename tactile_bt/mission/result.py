@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt.mission.joints import saturation_runs, saturation_warnings
+from tactile_bt.mission.joints import held_at_end, saturation_runs, saturation_warnings
 from tactile_bt.mission.metrics import controlled_feature_metrics, path_error
 from tactile_bt.mission.report import FeatureMetrics, MissionReport
 
@@ -111,7 +111,10 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     """
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
-    warnings = [*warnings, *_joint_limit_warnings(arrays, log, scene)]
+    runs = _joint_limit_runs(arrays, log, scene)
+    warnings = [*warnings, *saturation_warnings(runs)]
+    if status == "failure" and runs and (held := held_at_end(runs, float(sim_time_s))):
+        reason = f"{reason}; {held}"
     if status == "completed" and not np.any(arrays["in_contact"] == 1):
         status, reason = "failure", "no contact was made"
     scene_file = getattr(scene, "file", scene) or ""
@@ -158,8 +161,8 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     return MissionResult(summary=summary, log=arrays, contact_data=contacts.data.copy(), surface=surface)
 
 
-def _joint_limit_warnings(arrays: dict, log, scene) -> list[str]:
-    """The report lines of the runs in which the arm held a joint on its limit (none without an arm)."""
+def _joint_limit_runs(arrays: dict, log, scene) -> list:
+    """The runs in which the arm held a joint on its limit (none without an arm)."""
     saturated = arrays.get("joint_saturated")
     t = arrays["t"]
     if saturated is None or not saturated.any():
@@ -167,6 +170,5 @@ def _joint_limit_warnings(arrays: dict, log, scene) -> list[str]:
     rate = getattr(scene, "rate_hz", None)
     dt = 1.0 / rate if rate else float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     limits = getattr(log, "joint_limits", None) or (None, None)
-    runs = saturation_runs(t, saturated, dt, residual=arrays.get("rate_residual"), joints=arrays.get("joints_rad"),
+    return saturation_runs(t, saturated, dt, residual=arrays.get("rate_residual"), joints=arrays.get("joints_rad"),
                            q_min=limits[0], q_max=limits[1])
-    return saturation_warnings(runs)

@@ -23,8 +23,9 @@ Success needs evidence of the end: most cycles of the last ``dwell_s`` say ``sho
 contact stops being the line (a patch, the pad's edge on the table, no contact) within
 ``end_memory_m`` of travel after a settled line's end was in view. Any other way of leaving the
 line — turning away faster than the pad follows, sliding out sideways, flattening into a patch,
-another line in its place, contact lost — is a loss: FAILURE with a message that says what was
-lost where (``cable lost: the line left the pad sideways 212 mm along the path``), so that the
+another line in its place, contact lost — is a loss, and so is a pad that stops advancing along
+the line (less than ``min_headway_m`` in ``stall_s``: e.g. the arm holds a joint on its limit):
+FAILURE with a message that says what was lost where (``cable lost: the line left the pad sideways 212 mm along the path``), so that the
 tree can back up and re-acquire the line (:mod:`tactile_bt.tree.behaviours.cable_recovery`).
 
 Every cycle the leaf writes whether the contact is the followed line to ``on_line_key``
@@ -179,6 +180,10 @@ class CableEnd(TactileBehaviour):
     end_memory_m : float
         Pad travel (m) after the line's end was last in view during which a contact that stops
         being the line is still the end of the cable (the pad tips onto the table past it).
+    min_headway_m : float
+        The follow has stalled when the pad centre moved less than this in ``stall_s`` (m).
+    stall_s : float
+        Mission time over which the headway is measured (s; 0 = no stall check).
     keep_line : bool
         Ask feature extraction for the contact region nearest to where the followed line was
         last seen (False: the largest region, the paper's rule).
@@ -196,13 +201,15 @@ class CableEnd(TactileBehaviour):
     parameter_bounds = {"reach_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "max_turn_rad": between(0.0, math.pi / 2),
                         "max_jump_m": POSITIVE, "window_m": POSITIVE, "max_width_m": POSITIVE,
                         "max_area_ratio": between(0.0, 1.0, low_open=True), "lost_s": NON_NEGATIVE,
-                        "dwell_s": NON_NEGATIVE, "end_memory_m": NON_NEGATIVE}
+                        "dwell_s": NON_NEGATIVE, "end_memory_m": NON_NEGATIVE, "min_headway_m": NON_NEGATIVE,
+                        "stall_s": NON_NEGATIVE}
     fixed_parameters = frozenset({"name", "on_line_key", "path_key", "lost_key"})
 
     def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
                  max_offset_m: float = 0.010, max_turn_rad: float = math.radians(20.0), window_m: float = 0.02, max_jump_m: float = 0.008,
                  max_width_m: float = 0.03, max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
-                 end_memory_m: float = 0.02, keep_line: bool = True, on_line_key: str = "/cable/on_line",
+                 end_memory_m: float = 0.02, min_headway_m: float = 0.005, stall_s: float = 5.0,
+                 keep_line: bool = True, on_line_key: str = "/cable/on_line",
                  path_key: str = "/cable/path", lost_key: str = "/cable/lost") -> None:
         super().__init__(name)
         self.direction_rad = float(direction_rad)
@@ -216,6 +223,9 @@ class CableEnd(TactileBehaviour):
         self.lost_s = float(lost_s)
         self.dwell_s = float(dwell_s)
         self.end_memory_m = float(end_memory_m)
+        self.min_headway_m = float(min_headway_m)
+        self.stall_s = float(stall_s)
+        self._headway: deque[tuple[float, np.ndarray]] = deque()  # (time, pad position) every 0.5 s
         self.keep_line = bool(keep_line)
         self.on_line_key = normalise_key(on_line_key)
         self.path_key = normalise_key(path_key)
@@ -262,6 +272,21 @@ class CableEnd(TactileBehaviour):
         self._offset_px = math.nan
         self._end_in_view_s = -math.inf
         self._jumped_s = -math.inf
+        self._headway.clear()
+
+    def _stalled(self, now: float, pose: np.ndarray) -> bool:
+        """Whether the pad centre moved less than ``min_headway_m`` in the last ``stall_s``."""
+        if self.stall_s <= 0:
+            return False
+        headway = self._headway
+        if not headway or now - headway[-1][0] >= 0.5:
+            headway.append((now, pose[:3, 3].copy()))
+        if now - headway[0][0] < self.stall_s:
+            return False
+        while len(headway) > 1 and now - headway[1][0] >= self.stall_s:
+            headway.popleft()
+        moved = pose[:3, 3] - headway[0][1]
+        return math.sqrt(float(moved @ moved)) < self.min_headway_m
 
     def region_hint(self) -> tuple[tuple[float, float] | None, tuple[float, float, float] | None]:
         """Where feature extraction should look for the followed line (its ``near_px`` and
@@ -318,7 +343,10 @@ class CableEnd(TactileBehaviour):
         f = read(FEATURES_RAW)
         now = read(TIME)
         path = self._path
-        path.advance(read(POSE))
+        pose = read(POSE)
+        path.advance(pose)
+        if self._stalled(now, pose):
+            return self._finish("stalled")
         if not f.in_contact:
             write(self.on_line_key, False)
             self._window.clear()
@@ -374,12 +402,14 @@ class CableEnd(TactileBehaviour):
         if verdict == "offset" and path.length_m - self._jumped_s <= self.end_memory_m:
             verdict = "jumped"
         what = _LOSSES[verdict]
-        resumed = path.resumed
+        prefix = "cable follow stalled" if verdict == "stalled" else "cable lost"
         where = f"{path.length_m * 1e3:.0f} mm along the path"
-        if resumed and path.length_m - self._resumed_s < self.end_memory_m:
-            message = f"cable lost: {path.first_loss}; re-acquiring failed ({what} {where})"
+        if path.resumed and path.length_m - self._resumed_s < self.end_memory_m:
+            message = f"{prefix}: {path.first_loss}; re-acquiring failed ({what} {where})"
+        elif path.resumed:
+            message = f"{prefix}: {what} {where} (after {len(path.losses)} earlier, the first: {path.first_loss})"
         else:
-            message = f"cable lost: {what} {where}"
+            message = f"{prefix}: {what} {where}"
         loss = CableLoss(what=what, path_m=path.length_m, time_s=read(TIME), message=message)
         path.lost(loss)
         write(self.lost_key, loss)
@@ -405,4 +435,5 @@ _LOSSES = {
     "offset": "the line left the pad sideways",
     "jumped": "another line took the followed line's place",
     "none": "contact ended",
+    "stalled": "the pad stopped advancing along the line",
 }
