@@ -23,6 +23,7 @@ import numpy as np
 
 from tactile_bt import run_mission
 from tactile_bt.control.spatial import make_pose
+from tactile_bt.errors import YamlError
 from tactile_bt.robot.kinematics import LWR4Kinematics, Q_READY
 from tactile_bt.robot.lwr4_params import Q_MAX, Q_MIN
 from tactile_bt.sim.scene import load_scene
@@ -112,7 +113,7 @@ def place_base(scene_file: Path) -> None:
                 continue
             best = max(best, (margin, (round(float(bx), 2), round(float(by), 2))), key=lambda b: b[0])
     if best[1] is None:
-        raise SystemExit(f"{scene_file}: no base reaches the whole cable")
+        raise ValueError(f"{scene_file}: no base reaches the whole cable")
     text = scene_file.read_text().replace("  type: lwr4\n", f"  type: lwr4\n  base: [{best[1][0]}, {best[1][1]}, -0.33]\n")
     scene_file.write_text(text)
 
@@ -160,8 +161,14 @@ def main() -> None:
         files = []
         for i in range(args.random):
             path = folder / f"random_cable_{i}.yaml"
-            path.write_text(random_cable(rng, i))
-            place_base(path)
+            while True:  # a cable whose start the placed arm cannot reach is drawn again
+                path.write_text(random_cable(rng, i))
+                place_base(path)
+                try:
+                    load_scene(path)
+                    break
+                except (YamlError, ValueError):
+                    continue
             files.append(path)
     else:
         files = sorted((ROOT / "sim").glob("cable*.yaml"))

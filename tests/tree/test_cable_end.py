@@ -194,7 +194,8 @@ def test_line_shape_is_the_second_moments_of_the_tactel_positions():
             continue
         sxx, syy = cols.var(), rows.var()
         sxy = float(np.mean(cols * rows) - cols.mean() * rows.mean())
-        width, axis, mx, my = _shape(mask)
+        width, axis, mx, my, n = _shape(mask)
+        assert n == rows.size
         spread = math.hypot(sxx - syy, 2 * sxy)
         assert_allclose((mx, my), (cols.mean(), rows.mean()), rtol=1e-9)
         if spread > 1e-6:

@@ -8,7 +8,7 @@ pad's business):
 
 * **a line**: its tactels are spread along one axis (across it at most ``max_width_m`` wide,
   the width of a uniform band with the same spread) and cover at most ``max_area_ratio`` of the
-  pad — otherwise a ``patch``;
+  pad's tactels in the window — otherwise a ``patch``;
 * **along the travel**: its orientation is within ``max_turn_rad`` of the direction of travel —
   otherwise ``turned``;
 * **the same line**: its axis moved less than ``max_jump_m`` across the pad since the last
@@ -113,17 +113,17 @@ def _reach(along: np.ndarray, mask: np.ndarray) -> float:
     return float(ahead.max()) + 0.5 if ahead.size else -math.inf
 
 
-def _shape(mask: np.ndarray, basis: np.ndarray | None = None) -> tuple[float, float, float, float]:
+def _shape(mask: np.ndarray, basis: np.ndarray | None = None) -> tuple[float, float, float, float, float]:
     """Width ``sqrt(12 l2)`` across the major axis (tactels; the width of a uniform band with the
-    same spread; inf without a major axis), axis angle (rad, from +x towards +y) and centroid
-    ``(x, y)`` (tactels) of the tactel positions of ``mask`` (second
+    same spread; inf without a major axis), axis angle (rad, from +x towards +y), centroid
+    ``(x, y)`` (tactels) and count of the tactel positions of ``mask`` (second
     moments by one matrix product with ``basis``, default :func:`_moment_basis`; exact sums of
     small integers: this runs every control cycle)."""
     if basis is None:
         basis = _moment_basis(mask.shape)
     n, sum_x, sum_y, sum_xx, sum_yy, sum_xy = (basis @ mask.ravel().astype(float)).tolist()
     if n < 3:
-        return math.inf, math.nan, math.nan, math.nan
+        return math.inf, math.nan, math.nan, math.nan, n
     mx, my = sum_x / n, sum_y / n
     sxx = sum_xx / n - mx * mx
     syy = sum_yy / n - my * my
@@ -131,9 +131,9 @@ def _shape(mask: np.ndarray, basis: np.ndarray | None = None) -> tuple[float, fl
     total = sxx + syy
     spread = math.hypot(sxx - syy, 2.0 * sxy)
     if total <= 0 or spread <= 0:
-        return math.inf, math.nan, mx, my
+        return math.inf, math.nan, mx, my, n
     minor = max(0.5 * (total - spread), 0.0)
-    return math.sqrt(12.0 * minor), 0.5 * math.atan2(2.0 * sxy, sxx - syy), mx, my
+    return math.sqrt(12.0 * minor), 0.5 * math.atan2(2.0 * sxy, sxx - syy), mx, my, n
 
 
 class CableEnd(TactileBehaviour):
@@ -170,7 +170,7 @@ class CableEnd(TactileBehaviour):
     max_width_m : float
         Above this width across its axis the contact is no line (m).
     max_area_ratio : float
-        Above this share of the pad's tactels the contact is no line.
+        Above this share of the pad's tactels within ``window_m`` of its centre the contact is no line.
     lost_s : float
         Time without contact that ends the follow (s): the end when it was in view, a loss
         otherwise.
@@ -207,7 +207,7 @@ class CableEnd(TactileBehaviour):
 
     def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
                  max_offset_m: float = 0.010, max_turn_rad: float = math.radians(20.0), window_m: float = 0.02, max_jump_m: float = 0.008,
-                 max_width_m: float = 0.03, max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
+                 max_width_m: float = 0.03, max_area_ratio: float = 0.5, lost_s: float = 0.3, dwell_s: float = 0.1,
                  end_memory_m: float = 0.02, min_headway_m: float = 0.005, stall_s: float = 5.0,
                  keep_line: bool = True, on_line_key: str = "/cable/on_line",
                  path_key: str = "/cable/path", lost_key: str = "/cable/lost") -> None:
@@ -305,8 +305,6 @@ class CableEnd(TactileBehaviour):
         """Why the contact ``f`` is not the followed line (a short word, see the module
         docstring), or ``""`` when it is."""
         pad = f.pad
-        if f.area > self.max_area_ratio * pad.tactels:
-            return "patch"
         cached_pad, direction, window, along, leading, basis = self._cache
         if pad is not cached_pad or direction != self.direction_rad or window != self.window_m:
             direction, window = self.direction_rad, self.window_m
@@ -314,8 +312,8 @@ class CableEnd(TactileBehaviour):
             along, leading = _along(*key), _leading_border(*key)
             basis = _windowed_basis(*key, window / pad.pitch)
             self._cache = (pad, direction, window, along, leading, basis)
-        width, axis, mx, my = _shape(f.mask, basis)
-        if width * pad.pitch > self.max_width_m or not math.isfinite(axis):
+        width, axis, mx, my, n = _shape(f.mask, basis)
+        if n > self.max_area_ratio * basis[0].sum() or width * pad.pitch > self.max_width_m or not math.isfinite(axis):
             return "patch"
         turn = wrap_half_pi(axis - self.direction_rad)
         if abs(turn) > self.max_turn_rad:
