@@ -36,7 +36,7 @@ from typing import Any, ClassVar
 from tactile_bt.errors import ParameterTypeError, ParameterValueError
 from tactile_bt.tree.parameters import (FINITE, UNITS, Bound, convert_parameter, describe_type, node_label)
 
-__all__ = ["Parameter", "Parameterised", "REQUIRED", "snake_case"]
+__all__ = ["Parameter", "Parameterised", "REQUIRED", "snake_case", "undeclared_arguments", "is_parameterised"]
 
 #: The default of a required parameter (``inspect.Parameter.empty``, as in signatures).
 REQUIRED: Any = inspect.Parameter.empty
@@ -189,6 +189,7 @@ class Parameterised:
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        _refuse_second_declarations(cls)
         collected: dict[str, Parameter] = {}
         mro = cls.__mro__
         for i, klass in enumerate(mro):  # the most derived class's new parameters first
@@ -283,6 +284,35 @@ class Parameterised:
         """Parameter → current value (the attributes, after any derived conversion)."""
         return {k: (self.name if k == "name" else getattr(self, p.attribute))  # type: ignore[attr-defined]
                 for k, p in type(self).parameters.items()}
+
+
+def _refuse_second_declarations(cls: type) -> None:
+    """TypeError for a class that declares parameter checks elsewhere than in its
+    :class:`Parameter` s: ``parameter_bounds``, ``parameter_units`` or its own ``set_parameter``."""
+    legacy = sorted({"parameter_bounds", "parameter_units", "set_parameter"} & set(vars(cls)))
+    if legacy:
+        raise TypeError(f"{cls.__qualname__}: {', '.join(legacy)}: declare each parameter once, as a class attribute "
+                        "Parameter(default, bound=..., unit=..., doc=...), and build derived state in "
+                        "parameters_changed() (docs/writing_leaves.md)")
+
+
+def undeclared_arguments(cls: type) -> list[str]:
+    """The named arguments of the ``__init__`` of ``cls`` and its bases besides ``name`` and
+    ``child``: values a node type would take without a declaration (none for a node type;
+    :func:`~tactile_bt.tree.registry.register_node` refuses a class with some)."""
+    out: list[str] = []
+    variadic = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    for klass in cls.__mro__:
+        init = vars(klass).get("__init__")
+        if init is None or not issubclass(klass, Parameterised) or klass is Parameterised:
+            continue
+        try:
+            params = inspect.signature(init).parameters
+        except (TypeError, ValueError):
+            continue
+        out += [f"{klass.__qualname__}.__init__({n})" for n, p in params.items()
+                if n not in ("self", "name", "child") and p.kind not in variadic]
+    return out
 
 
 def _signature(cls: type) -> inspect.Signature:

@@ -24,7 +24,7 @@ import py_trees
 
 from tactile_bt.errors import PluginError
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
-from tactile_bt.tree.declaration import is_parameterised
+from tactile_bt.tree.declaration import is_parameterised, undeclared_arguments
 from tactile_bt.tree.parameters import ParameterInfo
 from tactile_bt.units import format_value
 
@@ -142,6 +142,10 @@ def register_node(type_name: str, cls: type, decorator: bool | None = None, orig
     if not is_parameterised(cls):
         raise PluginError(f"{here}: {cls.__name__} declares no parameters: derive it from TactileBehaviour (or "
                           "TactileDecorator) and declare each parameter as a class attribute Parameter(...)")
+    undeclared = undeclared_arguments(cls)
+    if undeclared:
+        raise PluginError(f"{here}: {', '.join(undeclared)} takes a value no Parameter declares: declare each "
+                          "parameter as a class attribute Parameter(...) (docs/writing_leaves.md)")
     if decorator is None:
         decorator = issubclass(cls, py_trees.decorators.Decorator)
     (DECORATORS if decorator else LEAVES)[type_name] = cls

@@ -7,7 +7,7 @@ import pytest
 
 from tactile_bt.errors import ParameterValueError
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES, CableEnd, ForceHold, Retry, TactileServo
-from tactile_bt.tree.declaration import Parameter, Parameterised
+from tactile_bt.tree.declaration import Parameter, Parameterised, undeclared_arguments
 from tactile_bt.tree.parameters import check_bound, parameters_of
 from tactile_bt.tree.reference import reference_markdown
 
@@ -39,6 +39,7 @@ def test_every_parameter_is_declared_once_with_doc_unit_bound_and_reference_row(
             check_bound(p.name, p.default, p.bound)  # raises when a default is out of range
         assert f"| `{p.name}` |" in table, f"{where} missing from the reference"
     # no second place that declares parameters, bounds or units
+    assert undeclared_arguments(cls) == []
     for klass in cls.__mro__:
         for legacy in ("parameter_bounds", "parameter_units", "set_parameter"):
             assert legacy not in vars(klass) or klass is Parameterised, f"{klass.__name__}.{legacy}"
@@ -102,3 +103,21 @@ def test_a_leaf_of_ones_own_declares_its_parameters_in_one_place():
     assert {p.name: p.unit for p in parameters_of(Wait)} == {"name": None, "hold_s": "s", "label": None}
     with pytest.raises(ParameterValueError, match="Wait 'w': hold_s must not be negative"):
         Wait("w", hold_s=-1.0)
+
+
+def test_a_second_declaration_is_refused():
+    from tactile_bt.errors import PluginError
+    from tactile_bt.tree import POSITIVE, TactileBehaviour
+    from tactile_bt.tree.registry import register_node
+
+    with pytest.raises(TypeError, match="parameter_bounds: declare each parameter once"):
+        class Bounded(TactileBehaviour):
+            parameter_bounds = {"x_m": POSITIVE}
+
+    class Signed(TactileBehaviour):
+        def __init__(self, name: str = "signed", x_m: float = 1.0) -> None:
+            super().__init__(name)
+
+    with pytest.raises(PluginError, match=r"Signed.__init__\(x_m\) takes a value no Parameter declares"):
+        register_node("signed", Signed)
+
