@@ -96,13 +96,17 @@ def test_cable_follow_loads_with_the_expected_nodes():
 
 
 def test_the_project_cable_tree_keeps_its_shape():
-    """trees/cable_follow.yaml: approach, settle on the cable, then a parallel that slides,
-    records and ends at the end of the cable."""
-    from tactile_bt.tree.behaviours import CableEnd, MissionTimeout
+    """trees/cable_follow.yaml: approach, then a bounded number of attempts, each backing up after
+    a loss, settling on the cable and a parallel that slides, records and ends at the end of the
+    cable (or fails when the line is lost)."""
+    from tactile_bt.tree.behaviours import Backtrack, CableEnd, MissionTimeout, Retry
 
     root = load_tree(CABLE_TREE).root
-    approach, settle, follow = root.children
-    assert isinstance(approach, Approach) and isinstance(settle, MissionTimeout)
+    approach, attempts = root.children
+    assert isinstance(approach, Approach) and isinstance(attempts, Retry) and attempts.num_failures >= 2
+    back_up, settle, follow = attempts.decorated.children
+    assert any(isinstance(c, Backtrack) for c in back_up.children)
+    assert isinstance(settle, MissionTimeout)
     kinds = {type(c) for c in follow.children}
     assert {ForceHold, Centre, AlignEdge, GuidedSlide, RecordContacts, CableEnd} <= kinds
     recorder = next(c for c in follow.children if isinstance(c, RecordContacts))
@@ -946,23 +950,15 @@ def test_register_a_leaf_of_your_own(node_registry):
     from typing import Literal
 
     from tactile_bt.tree.behaviours import TactileBehaviour
+    from tactile_bt.tree.declaration import Parameter
     from tactile_bt.tree.reference import describe_nodes
     from tactile_bt.tree.registry import register_node
 
     class Tap(TactileBehaviour):
-        """Succeed on a tap.
+        """Succeed on a tap."""
 
-        Parameters
-        ----------
-        force_n : float
-            Force that counts as a tap.
-        mode : str
-            How to count.
-        """
-
-        def __init__(self, name: str = "tap", force_n: float = 1.0, mode: Literal["any", "all"] = "any") -> None:
-            super().__init__(name)
-            self.force_n, self.mode = force_n, mode
+        force_n = Parameter(1.0, doc="Force that counts as a tap.")
+        mode = Parameter("any", type=Literal["any", "all"], doc="How to count.")
 
         def update(self):
             return Status.SUCCESS if self.features_raw.force > self.force_n else Status.RUNNING

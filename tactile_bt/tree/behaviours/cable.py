@@ -53,6 +53,7 @@ from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.cable_recovery import CableLoss, PadPath
 from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["CableEnd", "line_reach"]
@@ -141,96 +142,67 @@ class CableEnd(TactileBehaviour):
     RUNNING while the line goes on.
 
     The defaults leave wide margins to what following shows on the shipped cables (from 2 to
-    6 mm thick, soft and stiff): 3 to 4 tactels wide, within 3° of the travel and 0.7 px of the
-    centre, reaching the leading border.
-
-    Parameters
-    ----------
-    name : str
-        Name of the node.
-    direction_rad : float
-        Direction of travel in the sensor frame, from +x towards +y (rad); ``pi/2`` is the
-        sensor y axis, along which ``guided_slide`` moves the pad in the cable trees.
-    reach_m : float
-        The line ends under the pad when its leading end is less than this far ahead of the pad
-        centre (m). The imprint reaches a tactel or two beyond the cable's end (the foam spreads
-        the load), so 15 mm ends the follow with the end of the cable about at the pad centre.
-    max_offset_m : float
-        Largest distance of the line's axis from the pad centre (m).
-    max_turn_rad : float
-        Largest angle between the line and the direction of travel (rad).
-    window_m : float
-        Half-length of the part of the contact along the travel, around the pad centre, that is
-        judged a line (m); with ``keep_line`` also that of the part of the followed line whose
-        centre of pressure and orientation the servos see (a bend ahead of it does not turn
-        the pad before its centre gets there).
-    max_jump_m : float
-        Largest move of the line's axis across the pad from one cycle to the next (m); more is
-        another line in its place.
-    max_width_m : float
-        Above this width across its axis the contact is no line (m).
-    max_area_ratio : float
-        Above this share of the pad's tactels within ``window_m`` of its centre the contact is no line.
-    lost_s : float
-        Time without contact that ends the follow (s): the end when it was in view, a loss
-        otherwise.
-    dwell_s : float
-        A verdict counts when it was given in more than half of the cycles of the last
-        ``dwell_s`` of mission time (a single odd frame decides nothing).
-    end_memory_m : float
-        Pad travel (m) after the line's end was last in view during which a contact that stops
-        being the line is still the end of the cable (the pad tips onto the table past it).
-    min_headway_m : float
-        The follow has stalled when the pad centre moved less than this in ``stall_s`` (m).
-    stall_s : float
-        Mission time over which the headway is measured (s; 0 = no stall check).
-    keep_line : bool
-        Ask feature extraction for the contact region nearest to where the followed line was
-        last seen (False: the largest region, the paper's rule).
-    on_line_key : str
-        Blackboard key written every cycle: whether the contact is the followed line.
-    path_key : str
-        Blackboard key of the pad path recorded in on-line cycles (a ``PadPath``, kept across
-        restarts of the leaf; ``backtrack`` follows it back).
-    lost_key : str
-        Blackboard key the leaf writes a ``CableLoss`` to when it loses the line.
+    6 mm thick, soft and stiff, bends down to 30 mm radius): 3 to 4 tactels wide, within a few
+    degrees of the travel and 0.7 px of the centre, reaching the leading border.
     """
 
     uses = frozenset({"pressure", "orientation"})
     reports_success = True
-    parameter_bounds = {"reach_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "max_turn_rad": between(0.0, math.pi / 2),
-                        "max_jump_m": POSITIVE, "window_m": POSITIVE, "max_width_m": POSITIVE,
-                        "max_area_ratio": between(0.0, 1.0, low_open=True), "lost_s": NON_NEGATIVE,
-                        "dwell_s": NON_NEGATIVE, "end_memory_m": NON_NEGATIVE, "min_headway_m": NON_NEGATIVE,
-                        "stall_s": NON_NEGATIVE}
-    fixed_parameters = frozenset({"name", "on_line_key", "path_key", "lost_key"})
 
-    def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
-                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(20.0), window_m: float = 0.02, max_jump_m: float = 0.008,
-                 max_width_m: float = 0.03, max_area_ratio: float = 0.5, lost_s: float = 0.3, dwell_s: float = 0.1,
-                 end_memory_m: float = 0.02, min_headway_m: float = 0.005, stall_s: float = 5.0,
-                 keep_line: bool = True, on_line_key: str = "/cable/on_line",
-                 path_key: str = "/cable/path", lost_key: str = "/cable/lost") -> None:
-        super().__init__(name)
-        self.direction_rad = float(direction_rad)
-        self.reach_m = float(reach_m)
-        self.max_offset_m = float(max_offset_m)
-        self.max_turn_rad = float(max_turn_rad)
-        self.max_jump_m = float(max_jump_m)
-        self.window_m = float(window_m)
-        self.max_width_m = float(max_width_m)
-        self.max_area_ratio = float(max_area_ratio)
-        self.lost_s = float(lost_s)
-        self.dwell_s = float(dwell_s)
-        self.end_memory_m = float(end_memory_m)
-        self.min_headway_m = float(min_headway_m)
-        self.stall_s = float(stall_s)
-        self._headway: deque[tuple[float, np.ndarray]] = deque()  # (time, pad position) every 0.5 s
-        self.keep_line = bool(keep_line)
-        self.on_line_key = normalise_key(on_line_key)
-        self.path_key = normalise_key(path_key)
-        self.lost_key = normalise_key(lost_key)
-        self._writer = self.attach_blackboard_client(name=f"{name}/on_line")
+    direction_rad = Parameter(math.pi / 2, doc="Direction of travel in the sensor frame, from +x towards +y (rad); "
+                                               "``pi/2`` is the sensor y axis, along which ``guided_slide`` moves the "
+                                               "pad in the cable trees.")
+    reach_m = Parameter(0.015, bound=NON_NEGATIVE,
+                        doc="The line ends under the pad when its leading end is less than this far ahead of the pad "
+                            "centre (m; ``3 px`` are three tactels of the pad). The imprint reaches a tactel or two "
+                            "beyond the cable's end (the foam spreads the load), so 15 mm ends the follow with the "
+                            "end of the cable about at the pad centre.")
+    max_offset_m = Parameter(0.010, bound=NON_NEGATIVE, doc="Largest distance of the line's axis from the pad centre (m).")
+    max_turn_rad = Parameter(math.radians(20.0), bound=between(0.0, math.pi / 2),
+                             doc="Largest angle between the line (near the pad centre) and the direction of travel "
+                                 "(rad).")
+    window_m = Parameter(0.02, bound=POSITIVE,
+                         doc="Half-length of the part of the contact along the travel, around the pad centre, that is "
+                             "judged a line (m); with ``keep_line`` also that of the part of the followed line whose "
+                             "centre of pressure and orientation the servos see (a bend ahead of it does not turn the "
+                             "pad before its centre gets there).")
+    max_jump_m = Parameter(0.008, bound=POSITIVE,
+                           doc="Largest move of the line's axis across the pad from one cycle to the next (m); more "
+                               "is another line in its place.")
+    max_width_m = Parameter(0.03, bound=POSITIVE, doc="Above this width across its axis the contact is no line (m).")
+    max_area_ratio = Parameter(0.5, bound=between(0.0, 1.0, low_open=True), unit=None,
+                               doc="Above this share of the pad's tactels within ``window_m`` of its centre the "
+                                   "contact is no line.")
+    lost_s = Parameter(0.3, bound=NON_NEGATIVE,
+                       doc="Time without contact that ends the follow (s): the end when it was in view, a loss "
+                           "otherwise.")
+    dwell_s = Parameter(0.1, bound=NON_NEGATIVE,
+                        doc="A verdict counts when it was given in more than half of the cycles of the last "
+                            "``dwell_s`` of mission time (a single odd frame decides nothing).")
+    end_memory_m = Parameter(0.02, bound=NON_NEGATIVE,
+                             doc="Pad travel (m) after the line's end was last in view during which a contact that "
+                                 "stops being the line is still the end of the cable (the pad tips onto the table "
+                                 "past it).")
+    min_headway_m = Parameter(0.005, bound=NON_NEGATIVE,
+                              doc="The follow has stalled when the pad centre moved less than this in ``stall_s`` (m).")
+    stall_s = Parameter(5.0, bound=NON_NEGATIVE,
+                        doc="Mission time over which the headway is measured (s; 0 = no stall check).")
+    keep_line = Parameter(True, doc="Ask feature extraction for the contact region nearest to where the followed line "
+                                    "was last seen (False: the largest region, the paper's rule).")
+    on_line_key = Parameter("/cable/on_line", fixed=True,
+                            doc="Blackboard key written every cycle: whether the contact is the followed line.")
+    path_key = Parameter("/cable/path", fixed=True,
+                         doc="Blackboard key of the pad path recorded in on-line cycles (a ``PadPath``, kept across "
+                             "restarts of the leaf within a mission; ``backtrack`` follows it back).")
+    lost_key = Parameter("/cable/lost", fixed=True,
+                         doc="Blackboard key the leaf writes a ``CableLoss`` to when it loses the line.")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.on_line_key = normalise_key(self.on_line_key)
+        self.path_key = normalise_key(self.path_key)
+        self.lost_key = normalise_key(self.lost_key)
+        self._writer = self.attach_blackboard_client(name=f"{self.name}/on_line")
         for key in (self.on_line_key, self.path_key, self.lost_key):
             self._writer.register_key(key=key, access=Access.WRITE)
         self._window: deque[tuple[float, str]] = deque()
@@ -246,6 +218,7 @@ class CableEnd(TactileBehaviour):
         self._end_in_view_s = -math.inf  # path length at which a settled line's end was last in view
         self._jumped_s = -math.inf
         self._resumed_s = 0.0  # path length when the leaf (re)started
+        self._headway: deque[tuple[float, np.ndarray]] = deque()  # (time, pad position) every 0.5 s
 
     def setup(self, **kwargs) -> None:
         """A new mission: a new, empty path record and no loss (the blackboard outlives missions)."""

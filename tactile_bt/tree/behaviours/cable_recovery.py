@@ -20,6 +20,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import POSE, TIME, read, read_or, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import POSITIVE, normalise_key
 
 __all__ = ["Backtrack", "CableLoss", "PadPath"]
@@ -124,42 +125,23 @@ class Backtrack(TactileBehaviour):
     recorded ``distance_m`` before the last on-line one, and turns it about the pad normal to
     that pose's heading. SUCCESS there (within ``tolerance_m`` and 2°), which also clears the loss;
     SUCCESS at once when no loss is pending (the first follow). FAILURE after ``timeout_s``.
-
-    Parameters
-    ----------
-    name : str
-        Name of the node.
-    distance_m : float
-        How far to back up along the recorded path (m).
-    speed_mps : float
-        Largest speed in the pad plane (m/s).
-    turn_gain : float
-        Turn rate per rad of heading error (1/s).
-    tolerance_m : float
-        Distance to the recorded pose that counts as arrived (m).
-    timeout_s : float
-        Mission time allowed (s).
-    path_key, lost_key : str
-        Blackboard keys ``cable_end`` writes the path and the loss to.
     """
 
     uses = frozenset({"pressure"})
-    parameter_bounds = {"distance_m": POSITIVE, "speed_mps": POSITIVE, "turn_gain": POSITIVE, "tolerance_m": POSITIVE,
-                        "timeout_s": POSITIVE}
-    fixed_parameters = frozenset({"name", "path_key", "lost_key"})
 
-    def __init__(self, name: str = "backtrack", distance_m: float = 0.03, speed_mps: float = 0.01,
-                 turn_gain: float = 2.0, tolerance_m: float = 0.001, timeout_s: float = 10.0,
-                 path_key: str = "/cable/path", lost_key: str = "/cable/lost") -> None:
-        super().__init__(name)
-        self.distance_m = float(distance_m)
-        self.speed_mps = float(speed_mps)
-        self.turn_gain = float(turn_gain)
-        self.tolerance_m = float(tolerance_m)
-        self.timeout_s = float(timeout_s)
-        self.path_key = normalise_key(path_key)
-        self.lost_key = normalise_key(lost_key)
-        self._client = self.attach_blackboard_client(name=f"{name}/cable")
+    distance_m = Parameter(0.03, bound=POSITIVE, doc="How far to back up along the recorded path (m).")
+    speed_mps = Parameter(0.01, bound=POSITIVE, doc="Largest speed in the pad plane (m/s).")
+    turn_gain = Parameter(2.0, bound=POSITIVE, unit="1/s", doc="Turn rate per rad of heading error (1/s).")
+    tolerance_m = Parameter(0.001, bound=POSITIVE, doc="Distance to the recorded pose that counts as arrived (m).")
+    timeout_s = Parameter(10.0, bound=POSITIVE, doc="Mission time allowed (s).")
+    path_key = Parameter("/cable/path", fixed=True, doc="Blackboard key of the pad path ``cable_end`` records.")
+    lost_key = Parameter("/cable/lost", fixed=True, doc="Blackboard key ``cable_end`` writes a loss to.")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.path_key = normalise_key(self.path_key)
+        self.lost_key = normalise_key(self.lost_key)
+        self._client = self.attach_blackboard_client(name=f"{self.name}/cable")
         for key in (self.path_key, self.lost_key):
             self._client.register_key(key=key, access=Access.WRITE)
         self._target: tuple[float, np.ndarray] | None = None

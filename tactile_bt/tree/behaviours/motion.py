@@ -15,8 +15,9 @@ from tactile_bt import defaults
 from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import read
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, check_bound, node_label, normalise_key
-from tactile_bt.errors import BlackboardReferenceError, ParameterValueError
+from tactile_bt.tree.declaration import Parameter
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.units import TWIST
 
 
@@ -29,52 +30,23 @@ class Approach(TactileBehaviour):
     of travel without reaching it. This is the start of every experiment of the paper (Sec. V).
 
     The feedback message tells the distance travelled, the pressure reached, or why it failed.
-
-    Parameters
-    ----------
-    speed_mps : float
-        Approach speed along +z_s, towards the object (m/s; at most the cycle's linear twist limit).
-    pressure_pa : float
-        Smoothed contact pressure that counts as contact established (Pa).
-    timeout_s : float
-        Mission-clock time allowed from the start of the leaf (s).
-    max_travel_m : float
-        Largest distance travelled along the normal (m).
     """
 
     uses = frozenset({"pressure"})
     #: A faster approach would be capped by the cycle's twist limit and its ``travelled`` would
     #: count distance the pad never moved: it is refused instead.
-    parameter_bounds = {"speed_mps": between(0.0, defaults.TWIST_LINEAR_LIMIT_MPS, low_open=True,
-                                             note=f"the pad moves at most {defaults.TWIST_LINEAR_LIMIT_MPS:g} m/s "
-                                                  "(write e.g. '10 mm/s' for millimetres per second)"),
-                        "pressure_pa": POSITIVE, "timeout_s": POSITIVE, "max_travel_m": POSITIVE}
-
-    def __init__(
-        self,
-        name: str = "approach",
-        speed_mps: float = defaults.APPROACH_SPEED_MPS,
-        pressure_pa: float = defaults.APPROACH_PRESSURE_PA,
-        timeout_s: float = 10.0,
-        max_travel_m: float = 0.1,
-    ) -> None:
-        super().__init__(name)
-        self.set_parameter("speed_mps", speed_mps)
-        self.pressure_pa = float(pressure_pa)
-        self.set_parameter("timeout_s", timeout_s)
-        self.set_parameter("max_travel_m", max_travel_m)
-        self._start = 0.0
-        self.travelled = 0.0
-
-    def set_parameter(self, name: str, value) -> None:
-        if name == "speed_mps":
-            try:
-                check_bound(name, value, self.parameter_bounds[name], "m/s")
-            except ParameterValueError as exc:
-                raise ParameterValueError(name, exc.detail, node=node_label(type(self), self.name)) from None
-        if name in ("timeout_s", "max_travel_m") and not value > 0:
-            raise ValueError(f"{self.name}: {name} must be positive, got {value}")
-        super().set_parameter(name, value if name == "name" else float(value))
+    speed_mps = Parameter(defaults.APPROACH_SPEED_MPS,
+                          bound=between(0.0, defaults.TWIST_LINEAR_LIMIT_MPS, low_open=True,
+                                        note=f"the pad moves at most {defaults.TWIST_LINEAR_LIMIT_MPS:g} m/s "
+                                             "(write e.g. '10 mm/s' for millimetres per second)"),
+                          doc="Approach speed along +z_s, towards the object (m/s; at most the cycle's linear twist "
+                              "limit).")
+    pressure_pa = Parameter(defaults.APPROACH_PRESSURE_PA, bound=POSITIVE,
+                            doc="Smoothed contact pressure that counts as contact established (Pa).")
+    timeout_s = Parameter(10.0, bound=POSITIVE, doc="Mission-clock time allowed from the start of the leaf (s).")
+    max_travel_m = Parameter(0.1, bound=POSITIVE, doc="Largest distance travelled along the normal (m).")
+    _start = 0.0
+    travelled = 0.0
 
     def initialise(self) -> None:
         self._start = self.now
@@ -105,16 +77,6 @@ class Approach(TactileBehaviour):
 class GuidedSlide(TactileBehaviour):
     """Add the external guidance twist ``V_ext`` (sensor frame) of the paper's Eq. 3.
 
-    **Guidance scaling.** With ``slow_turn_rad`` or ``slow_offset_m`` set, the twist is scaled
-    each cycle by ``1 / (1 + |e_a| / slow_turn_rad + |e_l| / slow_offset_m)``, bounded below by
-    ``min_scale``: ``e_a`` is the angle between the contact's major axis and the direction of
-    travel (the twist's linear part in the pad plane; modulo pi), ``e_l`` the centre of
-    pressure's distance from the pad centre across the travel (both from the smoothed
-    features). Where a followed line turns in the pad or bends (the centre of pressure of a bent
-    line sits off it on the chord), the pad slows and the aligning servos keep up; on straight
-    parts it speeds up again, by at most ``speedup_per_s`` of the full twist per second. A
-    contact without a defined axis slides at ``min_scale``.
-
     The twist is constant (``twist``) or read each cycle from the blackboard key ``twist_key``
     (e.g. ``/planner/twist``, written by a planner; a missing key is an error when the leaf
     starts). A ``twist`` given as a blackboard reference (``"@/key"``) is instead read once,
@@ -122,83 +84,58 @@ class GuidedSlide(TactileBehaviour):
     SUCCESS after ``distance_m`` of travel or ``duration_s`` of mission time when given
     (0 = unlimited), otherwise RUNNING.
 
-    Parameters
-    ----------
-    twist : list of float
-        ``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame; elements may carry units
-        (``[0, 30 mm/s, 0, 0, 0, 10 deg/s]``).
-    twist_key : str
-        Blackboard key to read the twist from on every tick instead ("" = use ``twist``).
-    require_contact : bool
-        Slide only while in contact (otherwise wait, RUNNING).
-    distance_m : float
-        Succeed after this linear travel (m; 0 = unlimited).
-    duration_s : float
-        Succeed after this mission time (s; 0 = unlimited).
-    slow_turn_rad : float
-        Angle of the contact's axis to the travel at which the guidance halves (rad; 0 = the
-        angle does not slow it).
-    slow_offset_m : float
-        Distance of the centre of pressure from the pad centre, across the travel, at which the
-        guidance halves (m; 0 = the offset does not slow it).
-    min_scale : float
-        Lowest share of the twist the scaling leaves (0 < min_scale <= 1).
-    speedup_per_s : float
-        Largest growth of the scale per second of mission time (1/s).
+    **Guidance scaling.** With ``slow_turn_rad`` or ``slow_offset_m`` set, the twist is scaled
+    each cycle by ``1 / (1 + |e_a| / slow_turn_rad + |e_l| / slow_offset_m)``, bounded below by
+    ``min_scale``: ``e_a`` is the angle between the contact's major axis and the direction of
+    travel (the twist's linear part in the pad plane; modulo pi), ``e_l`` the centre of
+    pressure's distance from the pad centre across the travel (both from the smoothed
+    features). Where a followed line turns in the pad or bends, the pad slows and the aligning
+    servos keep up; on straight parts it speeds up again, by at most ``speedup_per_s`` of the
+    full twist per second. A contact without a defined axis slides at ``min_scale``.
     """
 
-    fixed_parameters = frozenset({"name", "twist_key", "slow_turn_rad", "slow_offset_m"})
-    #: ``twist`` is signed (its sign is the direction) and only has to be finite.
-    parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE, "slow_turn_rad": NON_NEGATIVE,
-                        "slow_offset_m": NON_NEGATIVE, "min_scale": between(0.0, 1.0, low_open=True),
-                        "speedup_per_s": POSITIVE}
-    parameter_units = {"twist": TWIST}
+    twist = Parameter((0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0), type=Sequence[float], unit=TWIST,
+                      doc="``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame; elements may carry units "
+                          "(``[0, 30 mm/s, 0, 0, 0, 10 deg/s]``); signed (its sign is the direction).")
+    twist_key = Parameter("", fixed=True, doc="Blackboard key to read the twist from on every tick instead (\"\" = "
+                                              "use ``twist``).")
+    require_contact = Parameter(True, doc="Slide only while in contact (otherwise wait, RUNNING).")
+    distance_m = Parameter(0.0, bound=NON_NEGATIVE, doc="Succeed after this linear travel (m; 0 = unlimited).")
+    duration_s = Parameter(0.0, bound=NON_NEGATIVE, doc="Succeed after this mission time (s; 0 = unlimited).")
+    slow_turn_rad = Parameter(0.0, bound=NON_NEGATIVE, fixed=True,
+                              doc="Angle of the contact's axis to the travel at which the guidance halves (rad; 0 = "
+                                  "the angle does not slow it).")
+    slow_offset_m = Parameter(0.0, bound=NON_NEGATIVE, fixed=True,
+                              doc="Distance of the centre of pressure from the pad centre, across the travel, at "
+                                  "which the guidance halves (m; 0 = the offset does not slow it).")
+    min_scale = Parameter(0.25, bound=between(0.0, 1.0, low_open=True), unit=None,
+                          doc="Lowest share of the twist the guidance scaling leaves.")
+    speedup_per_s = Parameter(1.0, bound=POSITIVE, unit="1/s",
+                              doc="Largest growth of the guidance scale per second of mission time (1/s).")
     #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
     key_parameters = {"twist_key": "twist"}
+    travelled = 0.0
+    _start = 0.0
+    #: The share of the twist added this cycle (guidance scaling).
+    scale = 1.0
 
-    def __init__(
-        self,
-        name: str = "guided_slide",
-        twist: Sequence[float] = (0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0),
-        twist_key: str = "",
-        require_contact: bool = True,
-        distance_m: float = 0.0,
-        duration_s: float = 0.0,
-        slow_turn_rad: float = 0.0,
-        slow_offset_m: float = 0.0,
-        min_scale: float = 0.25,
-        speedup_per_s: float = 1.0,
-    ) -> None:
-        super().__init__(name)
-        self.slow_turn_rad = float(slow_turn_rad)
-        self.slow_offset_m = float(slow_offset_m)
-        self.min_scale = float(min_scale)
-        self.speedup_per_s = float(speedup_per_s)
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
         if self.slow_turn_rad > 0 or self.slow_offset_m > 0:
             self.uses = frozenset({"orientation", "cop"})
-        self.scale = 1.0
-        self.set_parameter("twist", twist)
-        self.twist_key = twist_key
-        if twist_key:
-            self._key = normalise_key(twist_key)
-            self._external = self.attach_blackboard_client(name=f"{name}/external")
+        if self.twist_key:
+            self._key = normalise_key(self.twist_key)
+            self._external = self.attach_blackboard_client(name=f"{self.name}/external")
             self._external.register_key(key=self._key, access=Access.READ)
-        self.require_contact = bool(require_contact)
-        self.distance_m = float(distance_m)
-        self.duration_s = float(duration_s)
-        self.travelled = 0.0
-        self._start = 0.0
 
-    def set_parameter(self, name: str, value) -> None:
-        if name == "twist":
-            twist = np.asarray(value, dtype=float)
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        if "twist" in changed:
+            twist = np.asarray(self.twist, dtype=float)
             if twist.shape != (6,) or not np.all(np.isfinite(twist)):
                 raise ValueError(f"{self.name}: twist must be 6 finite numbers, got {list(np.ravel(twist))!r}")
             self.twist = twist
             self._twist = tuple(float(v) for v in twist)
             self._speed = float(np.linalg.norm(twist[:3]))
-        else:
-            super().set_parameter(name, value)
 
     def initialise(self) -> None:
         self.travelled = 0.0
