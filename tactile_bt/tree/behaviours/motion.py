@@ -85,13 +85,14 @@ class GuidedSlide(TactileBehaviour):
     (0 = unlimited), otherwise RUNNING.
 
     **Guidance scaling.** With ``slow_turn_rad`` or ``slow_offset_m`` set, the twist is scaled
-    each cycle by ``1 / (1 + |e_a| / slow_turn_rad + |e_l| / slow_offset_m)``, bounded below by
+    each cycle by ``1 / (1 + (e_a / slow_turn_rad)² + (e_l / slow_offset_m)²)``, bounded below by
     ``min_scale``: ``e_a`` is the angle between the contact's major axis and the direction of
     travel (the twist's linear part in the pad plane; modulo pi), ``e_l`` the centre of
     pressure's distance from the pad centre across the travel (both from the smoothed
     features). Where a followed line turns in the pad or bends, the pad slows and the aligning
-    servos keep up; on straight parts it speeds up again, by at most ``speedup_per_s`` of the
-    full twist per second. A contact without a defined axis slides at ``min_scale``.
+    servos keep up; on straight parts, with errors well below those scales, it slides at nearly
+    the full twist again, speeding up by at most ``speedup_per_s`` of the full twist per second.
+    A contact without a defined axis slides at ``min_scale``.
     """
 
     twist = Parameter((0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0), type=Sequence[float], unit=TWIST,
@@ -140,7 +141,7 @@ class GuidedSlide(TactileBehaviour):
     def initialise(self) -> None:
         self.travelled = 0.0
         self._start = self.now
-        self.scale = self.min_scale
+        self.scale = 1.0
         if self.twist_key and not self._external.exists(self._key):
             raise BlackboardReferenceError(f"{self.name}: blackboard key {self._key!r} (twist_key) is not set; "
                            "write the twist there before the leaf starts")
@@ -167,10 +168,10 @@ class GuidedSlide(TactileBehaviour):
         else:
             slowing = 0.0
             if self.slow_turn_rad > 0:
-                slowing += abs(wrap_half_pi(angle - travel)) / self.slow_turn_rad
+                slowing += (wrap_half_pi(angle - travel) / self.slow_turn_rad) ** 2
             if self.slow_offset_m > 0:
                 x, y = f.cop_xy
-                slowing += abs(y * math.cos(travel) - x * math.sin(travel)) / self.slow_offset_m
+                slowing += ((y * math.cos(travel) - x * math.sin(travel)) / self.slow_offset_m) ** 2
             target = max(self.min_scale, 1.0 / (1.0 + slowing))
         self.scale = min(target, self.scale + self.speedup_per_s * self.dt)
         return self.scale
