@@ -156,6 +156,18 @@ def test_the_followed_line_is_the_region_extraction_keeps():
     assert kept.pressure == pytest.approx(image[loaded].sum() / (loaded.sum() * kept.pad.pitch ** 2), rel=1e-9)
 
 
+def test_a_larger_line_beside_the_followed_one_is_no_loss():
+    """Through the harness's perception (as in a mission): a larger line comes in beside the
+    followed one; the leaf keeps the followed one and stays on it."""
+    h = LeafHarness(CableEnd(), dt=DT)
+    run(h, cable_frame(), 0.2)
+    both = cable_frame() + contact_frame(cop_px=(13.5, 7.5), force_n=4.0, orientation_rad=math.pi / 2,
+                                         length_px=20.0, width_px=3.0)
+    assert run(h, both, 0.5) == Status.RUNNING
+    assert read("/cable/on_line") is True
+    assert abs(h.features_raw.cop_px[0] - 7.5) < 0.5
+
+
 def test_the_cable_tree_ends_at_the_end_of_a_short_cable_whatever_the_budget(tmp_path):
     """A 200 mm cable: the mission ends by touch, with the same figures for a budget of 30 s
     and of 60 s, and records nothing off the cable."""
