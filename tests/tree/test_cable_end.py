@@ -195,7 +195,7 @@ def test_line_shape_is_the_second_moments_of_the_tactel_positions():
     """``_shape`` (one product with a basis of moments) against the moments written out."""
     from numpy.testing import assert_allclose
 
-    from tactile_bt.tree.behaviours.cable import _shape
+    from tactile_bt.tree.behaviours.line_shape import line_shape as _shape
 
     rng = np.random.default_rng(5)
     for _ in range(200):

@@ -42,7 +42,6 @@ Layer: tree.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections import Counter, deque
 
@@ -52,89 +51,12 @@ from py_trees.common import Access, Status
 from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.cable_recovery import CableLoss, PadPath
+from tactile_bt.tree.behaviours.line_shape import along, leading_border, line_reach, line_shape, reach, windowed_basis
 from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["CableEnd", "line_reach"]
-
-
-@functools.lru_cache(maxsize=16)
-def _grid(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Column and row index of every tactel of a ``shape`` pad, flattened (row-major), as floats."""
-    rows, cols = np.indices(shape, dtype=float)
-    return cols.ravel(), rows.ravel()
-
-
-@functools.lru_cache(maxsize=16)
-def _along(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad: float) -> np.ndarray:
-    """Position of every tactel along ``direction_rad`` from the pad centre (tactels), flattened."""
-    x, y = _grid(shape)
-    return (x - centre_px[0]) * math.cos(direction_rad) + (y - centre_px[1]) * math.sin(direction_rad)
-
-
-@functools.lru_cache(maxsize=16)
-def _leading_border(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad: float) -> np.ndarray:
-    """Flat indices of the border tactels of a ``shape`` pad ahead of its centre along
-    ``direction_rad``: a line whose leading end lies inside the pad touches none of them."""
-    rows, cols = shape
-    border = np.zeros(shape, dtype=bool)
-    border[0, :] = border[-1, :] = border[:, 0] = border[:, -1] = True
-    ahead = _along(shape, centre_px, direction_rad) > 0.5
-    return np.flatnonzero(border.ravel() & ahead)
-
-
-@functools.lru_cache(maxsize=16)
-def _moment_basis(shape: tuple[int, int]) -> np.ndarray:
-    """Rows 1, x, y, x², y², x·y over the tactels of a ``shape`` pad (x = column, y = row): one
-    product with a mask gives every sum :func:`_shape` needs."""
-    x, y = _grid(shape)
-    return np.stack((np.ones_like(x), x, y, x * x, y * y, x * y))
-
-
-@functools.lru_cache(maxsize=16)
-def _windowed_basis(shape: tuple[int, int], centre_px: tuple[float, float], direction_rad: float,
-                    window_px: float) -> np.ndarray:
-    """:func:`_moment_basis` with the tactels farther than ``window_px`` from the pad centre
-    along ``direction_rad`` left out (their columns zero)."""
-    inside = np.abs(_along(shape, centre_px, direction_rad)) <= window_px
-    return _moment_basis(shape) * inside
-
-
-def line_reach(mask: np.ndarray, centre_px: tuple[float, float], direction_rad: float) -> float:
-    """How far (tactels) the contact region ``mask`` reaches ahead of the pad centre along
-    ``direction_rad`` (sensor frame, from +x towards +y): the largest projection of its tactels,
-    plus half a tactel (a tactel's far edge). ``-inf`` for an empty mask."""
-    return _reach(_along(mask.shape, tuple(centre_px), float(direction_rad)), mask)
-
-
-def _reach(along: np.ndarray, mask: np.ndarray) -> float:
-    """:func:`line_reach` from the tactels' positions ``along`` the direction (flattened)."""
-    ahead = along[mask.ravel()]
-    return float(ahead.max()) + 0.5 if ahead.size else -math.inf
-
-
-def _shape(mask: np.ndarray, basis: np.ndarray | None = None) -> tuple[float, float, float, float, float]:
-    """Width ``sqrt(12 l2)`` across the major axis (tactels; the width of a uniform band with the
-    same spread; inf without a major axis), axis angle (rad, from +x towards +y), centroid
-    ``(x, y)`` (tactels) and count of the tactel positions of ``mask`` (second
-    moments by one matrix product with ``basis``, default :func:`_moment_basis`; exact sums of
-    small integers: this runs every control cycle)."""
-    if basis is None:
-        basis = _moment_basis(mask.shape)
-    n, sum_x, sum_y, sum_xx, sum_yy, sum_xy = (basis @ mask.ravel().astype(float)).tolist()
-    if n < 3:
-        return math.inf, math.nan, math.nan, math.nan, n
-    mx, my = sum_x / n, sum_y / n
-    sxx = sum_xx / n - mx * mx
-    syy = sum_yy / n - my * my
-    sxy = sum_xy / n - mx * my
-    total = sxx + syy
-    spread = math.hypot(sxx - syy, 2.0 * sxy)
-    if total <= 0 or spread <= 0:
-        return math.inf, math.nan, mx, my, n
-    minor = max(0.5 * (total - spread), 0.0)
-    return math.sqrt(12.0 * minor), 0.5 * math.atan2(2.0 * sxy, sxx - syy), mx, my, n
 
 
 class CableEnd(TactileBehaviour):
@@ -278,14 +200,14 @@ class CableEnd(TactileBehaviour):
         """Why the contact ``f`` is not the followed line (a short word, see the module
         docstring), or ``""`` when it is."""
         pad = f.pad
-        cached_pad, direction, window, along, leading, basis = self._cache
+        cached_pad, direction, window, along_travel, leading, basis = self._cache
         if pad is not cached_pad or direction != self.direction_rad or window != self.window_m:
             direction, window = self.direction_rad, self.window_m
             key = (pad.shape, pad.centre_px, float(direction))
-            along, leading = _along(*key), _leading_border(*key)
-            basis = _windowed_basis(*key, window / pad.pitch)
-            self._cache = (pad, direction, window, along, leading, basis)
-        width, axis, mx, my, n = _shape(f.mask, basis)
+            along_travel, leading = along(*key), leading_border(*key)
+            basis = windowed_basis(*key, window / pad.pitch)
+            self._cache = (pad, direction, window, along_travel, leading, basis)
+        width, axis, mx, my, n = line_shape(f.mask, basis)
         if n > self.max_area_ratio * basis[0].sum() or width * pad.pitch > self.max_width_m or not math.isfinite(axis):
             return "patch"
         turn = wrap_half_pi(axis - self.direction_rad)
@@ -303,7 +225,7 @@ class CableEnd(TactileBehaviour):
         along_axis = (cx - mx) * ux + (cy - my) * uy
         self._hint = (mx + along_axis * ux, my + along_axis * uy)
         self._window_px = (ux, uy, self.window_m / pad.pitch)
-        self.reach_px = _reach(along, f.mask)
+        self.reach_px = reach(along_travel, f.mask)
         if not f.mask.ravel()[leading].any():
             self._end_in_view_s = self._path.length_m
             if self.reach_px * pad.pitch < self.reach_m:
