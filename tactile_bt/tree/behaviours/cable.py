@@ -140,7 +140,7 @@ class CableEnd(TactileBehaviour):
         self._end_in_view_s = -math.inf  # path length at which a settled line's end was last in view
         self._jumped_s = -math.inf
         self._resumed_s = 0.0  # path length when the leaf (re)started
-        self._headway: deque[tuple[float, np.ndarray]] = deque()  # (time, pad position) every 0.5 s
+        self._headway: deque[tuple[float, list[float]]] = deque()  # (time, pad position) every 0.5 s
 
     def setup(self, **kwargs) -> None:
         """A new mission: a new, empty path record and no loss (the blackboard outlives missions)."""
@@ -174,14 +174,15 @@ class CableEnd(TactileBehaviour):
         if self.stall_s <= 0:
             return False
         headway = self._headway
-        if not headway or now - headway[-1][0] >= 0.5:
-            headway.append((now, pose[:3, 3].copy()))
+        if headway and now - headway[-1][0] < 0.5:
+            return False  # judged on the samples, every 0.5 s
+        position = pose[:3, 3].tolist()
+        headway.append((now, position))
         if now - headway[0][0] < self.stall_s:
             return False
         while len(headway) > 1 and now - headway[1][0] >= self.stall_s:
             headway.popleft()
-        moved = pose[:3, 3] - headway[0][1]
-        return math.sqrt(float(moved @ moved)) < self.min_headway_m
+        return math.dist(position, headway[0][1]) < self.min_headway_m
 
     def region_hint(self) -> tuple[tuple[float, float] | None, tuple[float, float, float] | None]:
         """Where feature extraction should look for the followed line (its ``near_px`` and

@@ -58,24 +58,21 @@ class PadPath:
     def __init__(self, spacing_m: float = 0.001) -> None:
         self.spacing_m = float(spacing_m)
         self.length_m = 0.0
-        self._last: np.ndarray | None = None  # the last pad position seen (m, world)
+        self._last: tuple[float, float, float] | None = None  # the last pad position seen (m, world)
         self._s: list[float] = []  # path length of each recorded pose (m)
         self._poses: list[np.ndarray] = []
         self.losses: list[CableLoss] = []
 
     def resume(self, pose: np.ndarray) -> None:
         """Start measuring travel from ``pose`` (a follow starts or restarts here)."""
-        self._last = np.array(pose[:3, 3], dtype=float)
+        self._last = tuple(pose[:3, 3].tolist())
 
     def advance(self, pose: np.ndarray) -> None:
-        """Add the travel from the last pose to ``pose`` to :attr:`length_m`."""
-        p = pose[:3, 3]
+        """Add the travel from the last pose to ``pose`` to :attr:`length_m` (per cycle: Python floats)."""
+        p = pose[:3, 3].tolist()
         if self._last is not None:
-            d = p - self._last
-            self.length_m += math.sqrt(float(d @ d))
-            self._last[:] = p
-        else:
-            self._last = np.array(p, dtype=float)
+            self.length_m += math.dist(p, self._last)
+        self._last = p
 
     def record(self, pose: np.ndarray) -> None:
         """Keep ``pose`` (an on-line cycle's) when the pad moved ``spacing_m`` since the last kept one."""
