@@ -28,7 +28,6 @@ import numpy as np
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sense.calibration import TactelCalibration
-from tactile_bt.robot import kernels as arm_kernels
 from tactile_bt.sim import kernels
 
 __all__ = ["SensorParams", "SensorModel", "PadContact"]
@@ -148,7 +147,6 @@ class SensorModel:
         self._raw = np.zeros(n, dtype=np.uint16)
         self._wK = np.zeros(42)
         self._T = np.eye(4)
-        self._arm_work = np.zeros(arm_kernels.WORK_SIZE)  # the arm step's work array
         self._args = None
         self._cal_of = None
         self._cal = np.zeros((3, n))
@@ -278,22 +276,15 @@ class SensorModel:
         kernels.pad_contact(self._T, self._args, self._wK)
         return self._wK[:6].copy(), self._wK[6:].reshape(6, 6).copy()
 
-    def arm_step(self, objects, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
-        """The compliant arm's step against the pad's contact with ``objects``, compiled:
-        :func:`tactile_bt.robot.kernels.arm_step` (the packed model, state and output arrays)
-        and the pad's contact at each of its trial poses, in turn.  Returns the step's status."""
+    def contact_kernel(self, objects) -> tuple:
+        """The compiled contact with ``objects`` for the compliant arm's step
+        (:class:`~tactile_bt.robot.stepping.CompiledContact`): ``(kernel, data)``, where
+        ``kernel(T, data, wK)`` writes the wrench and stiffness at the pad pose ``T`` into ``wK``
+        (:func:`tactile_bt.sim.kernels.pad_contact`, set to compute those and not the forces)."""
         self._prepare(None, objects)
-        step, work = arm_kernels.arm_step, self._arm_work
-        T = work[arm_kernels.W_TT:arm_kernels.W_TT + 16].reshape(4, 4)  # the trial pose, and the contact there
-        wK = work[arm_kernels.W_WT:arm_kernels.W_WT + 42]
-        contact, data, job = kernels.pad_contact, self._args, self._job
-        job[0] = 0.0
-        job[1] = 1.0
-        status = step(arm_kernels.BEGIN, kin, arm, io, out, work)
-        while status == arm_kernels.STATUS_EVALUATE:
-            contact(T, data, wK)
-            status = step(0, kin, arm, io, out, work)
-        return int(status)
+        self._job[0] = 0.0
+        self._job[1] = 1.0
+        return kernels.pad_contact, self._args
 
     def spread(self, force: np.ndarray) -> np.ndarray:
         """Foam spread: a separable Gaussian of ``foam_spread`` tactels, truncated at 2.5 σ.
@@ -321,8 +312,9 @@ class PadContact:
     """The contact of a world's pad with its objects, for a compliant mount.
 
     Called with a pose it returns ``(wrench_g, K_x)`` (:meth:`SensorModel.contact`), like any
-    contact model of :mod:`tactile_bt.robot.equilibrium`; :meth:`arm_step` lets
-    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in compiled kernels.
+    contact model of :mod:`tactile_bt.robot.equilibrium`; :meth:`contact_kernel` lets
+    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in compiled kernels
+    (:class:`~tactile_bt.robot.stepping.CompiledContact`).
 
     Parameters
     ----------
@@ -337,6 +329,6 @@ class PadContact:
     def __call__(self, T_gs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.sensor.contact(T_gs, self.world.objects)
 
-    def arm_step(self, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
-        """See :meth:`SensorModel.arm_step`."""
-        return self.sensor.arm_step(self.world.objects, kin, arm, io, out)
+    def contact_kernel(self) -> tuple:
+        """See :meth:`SensorModel.contact_kernel`."""
+        return self.sensor.contact_kernel(self.world.objects)
