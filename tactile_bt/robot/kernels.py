@@ -1,8 +1,8 @@
 """Compiled kernels of the arm: kinematics, the resolved-rate step and the contact equilibrium.
 
 numba ``nopython`` versions of the arm's hot path, for a contact model that is compiled too
-(the simulated pad, :class:`tactile_bt.sim.pad.SensorModel`, alternates :func:`arm_step` with
-its own kernel).  They compute what :mod:`tactile_bt.robot.kinematics`,
+(the simulated pad, :class:`tactile_bt.sim.pad.PadContact`, whose kernel
+:class:`tactile_bt.robot.stepping.ArmStepper` alternates with :func:`arm_step`).  They compute what :mod:`tactile_bt.robot.kinematics`,
 :mod:`tactile_bt.robot.resolved_rate`, :mod:`tactile_bt.robot.redundancy` and
 :mod:`tactile_bt.robot.equilibrium` describe, with the same formulas, damping schedule and
 safeguards, written out for the 7-joint arm.  Those Python implementations stay: they serve any
@@ -29,11 +29,15 @@ The fast path and what it hands back
 Compilation
 -----------
 ``cache=True`` keeps the machine code on disk (numba's ``NUMBA_CACHE_DIR``), IEEE semantics (no
-``fastmath``) keep a seed's run the same every time.  Python calls :func:`arm_step` and the
-contact model's kernel in turn, so neither links the other's machine code: numba links and
+``fastmath``) keep a seed's run the same every time.  Python
+(:meth:`tactile_bt.robot.stepping.ArmStepper.run`) calls :func:`arm_step` and the contact
+model's kernel in turn, so neither links the other's machine code: numba links and
 optimises a function's whole call tree into it again, and one kernel calling both would pay the
 compile of both a second time, in series, on a cold cache (:mod:`tactile_bt.sim.warmup`).  The
-work arrays are views of one float64 array, so a call passes six arguments.  Small helpers with
+state is a few flat float64 arrays, so a call passes six arguments; each array's fields are
+declared once, as a :class:`~tactile_bt.robot.layout.Layout` (:data:`KIN`, :data:`ARM`,
+:data:`IO`, :data:`OUT`, :data:`WORK`, :data:`CONTACT`), whose offsets the kernels read as
+module constants (``W_TT``, ...), and the work array's fields are views of it.  Small helpers with
 one caller are inlined at numba's level (``inline="always"``: :func:`arm_begin`); larger ones are
 called (numba's inlining retypes the inlined code in every caller, which costs more than a
 call).  Loops run over sizes read from the arrays, and no helper takes a constant argument (each

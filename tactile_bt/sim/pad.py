@@ -132,12 +132,9 @@ class SensorModel:
             radius = max(1, int(np.ceil(2.5 * p.foam_spread)))
         self._spread_radius = radius
         # What the compiled kernels read (types fixed: float64 / int64 C arrays, writable).
-        self._padf = np.zeros(kernels.PAD_SIZE)
-        self._padf[kernels.PF_REACH] = pad.pitch * np.sqrt(0.5)  # no point of a tactel is farther from its centre
-        self._padf[kernels.PF_MARGIN] = self.BROAD_PHASE_MARGIN
-        self._padf[kernels.PF_NOISE] = p.noise_counts
-        self._padf[kernels.PF_NOISE_REL] = p.noise_relative
-        self._padf[kernels.PF_ADC] = defaults.ADC_MAX
+        self._padf = kernels.PAD.pack(reach=pad.pitch * np.sqrt(0.5),  # no point of a tactel is farther from its centre
+                                      margin=self.BROAD_PHASE_MARGIN, noise=p.noise_counts,
+                                      noise_relative=p.noise_relative, adc_max=defaults.ADC_MAX)
         eye = np.eye(1)
         self._Gr = eye if self._spread_rows is None else np.ascontiguousarray(self._spread_rows)
         self._Gc = eye if self._spread_cols is None else np.ascontiguousarray(self._spread_cols)
@@ -145,19 +142,23 @@ class SensorModel:
         self._force = np.zeros(n)
         self._z = np.zeros(n)
         self._raw = np.zeros(n, dtype=np.uint16)
-        self._wK = np.zeros(42)
+        self._wK = np.zeros(kernels.CONTACT.size)
         self._T = np.eye(4)
         self._args = None
         self._cal_of = None
         self._cal = np.zeros((3, n))
         self._packed: tuple = ()
-        self._objf = np.zeros((1, kernels.OBJ_SIZE))
+        self._objf = np.zeros((1, kernels.OBJ.size))
         self._grids = np.zeros(1)
         self._near = np.zeros((1, n), dtype=np.int64)
         self._nnear = np.zeros(1, dtype=np.int64)
-        self._broad = np.zeros(kernels.BROAD_SIZE)
-        self._job = np.zeros(3)
-        self._last = np.zeros(kernels.LAST_SIZE)
+        self._broad = np.zeros(kernels.BROAD.size)
+        self._job = np.zeros(kernels.JOB.size)
+        self._last = np.zeros(kernels.LAST.size)
+        self._valid = (kernels.BROAD.view(self._broad, "valid"), kernels.LAST.view(self._last, "valid"))
+        # what pad_contact is asked for: the tactel forces, the contact wrench and stiffness
+        self._ask_forces = kernels.JOB.view(self._job, "forces")
+        self._ask_contact = kernels.JOB.view(self._job, "contact")
         self._last_force = np.zeros(n)
 
     # ------------------------------------------------------------------------------------
@@ -168,8 +169,12 @@ class SensorModel:
         """Forget the packed objects, the broad phase and the last pose's result (call when
         objects move)."""
         self._packed = ()
-        self._broad[0] = 0.0
-        self._last[0] = 0.0
+        self._forget()
+
+    def _forget(self) -> None:
+        """Mark the broad phase and the last pose's result as stale."""
+        for valid in self._valid:
+            valid[0] = 0.0
 
     def _prepare(self, T_gs, objects) -> None:
         """The pose and the objects as the kernel reads them (objects repacked when the list
@@ -178,12 +183,11 @@ class SensorModel:
         if objects != self._packed:  # objects compare by identity
             self._objf, self._grids = kernels.pack_objects(objects, self.params.foam_stiffness, self.tactel_area,
                                                            len(self._offsets))
-            if not objects:
-                self._objf[0, kernels.F_BLO:kernels.F_BHI + 3] = (np.inf,) * 3 + (-np.inf,) * 3
+            if not objects:  # a row no pad is near
+                kernels.OBJ.pack(self._objf[0], bounds_lo=np.inf, bounds_hi=-np.inf)
             self._near = np.zeros((max(len(objects), 1), self.pad.tactels), dtype=np.int64)
             self._nnear = np.zeros(max(len(objects), 1), dtype=np.int64)
-            self._broad[0] = 0.0
-            self._last[0] = 0.0
+            self._forget()
             self._packed = objects
             self._args = None
         if self.calibration is not self._cal_of:
@@ -207,9 +211,8 @@ class SensorModel:
         """The tactel forces at ``_T`` (spread by the foam) into ``_force``; returns the deepest
         penetration (m).  The kernels are always called with arguments of the same types (one
         compiled version each)."""
-        job = self._job
-        job[0] = 1.0
-        job[1] = 0.0
+        self._ask_forces[0] = 1.0
+        self._ask_contact[0] = 0.0
         deepest = kernels.pad_contact(self._T, self._args, self._wK)
         if self._spread_rows is not None:
             kernels.foam_spread(self._force, self._Gr, self._Gc, self._spread_radius, *self.pad.shape)
@@ -271,10 +274,10 @@ class SensorModel:
             ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
         """
         self._prepare(T_gs, objects)
-        self._job[0] = 0.0
-        self._job[1] = 1.0
+        self._ask_forces[0] = 0.0
+        self._ask_contact[0] = 1.0
         kernels.pad_contact(self._T, self._args, self._wK)
-        return self._wK[:6].copy(), self._wK[6:].reshape(6, 6).copy()
+        return kernels.CONTACT.view(self._wK, "wrench").copy(), kernels.CONTACT.view(self._wK, "stiffness").copy()
 
     def contact_kernel(self, objects) -> tuple:
         """The compiled contact with ``objects`` for the compliant arm's step
@@ -282,8 +285,8 @@ class SensorModel:
         ``kernel(T, data, wK)`` writes the wrench and stiffness at the pad pose ``T`` into ``wK``
         (:func:`tactile_bt.sim.kernels.pad_contact`, set to compute those and not the forces)."""
         self._prepare(None, objects)
-        self._job[0] = 0.0
-        self._job[1] = 1.0
+        self._ask_forces[0] = 0.0
+        self._ask_contact[0] = 1.0
         return kernels.pad_contact, self._args
 
     def spread(self, force: np.ndarray) -> np.ndarray:
