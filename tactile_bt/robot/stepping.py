@@ -76,9 +76,10 @@ class ArmStepper:
         self._q_dot = rk.IO.view(io, "q_dot")
         self._twist = rk.IO.view(io, "twist")
         self._q_dot_cmd = rk.IO.view(io, "q_dot_cmd")
-        #: The step's scalar inputs, in the order :meth:`load` takes them.
-        self._inputs = np.array([rk.IO.offset(f) for f in ("dt", "mode", "ik_damping", "sigma_threshold", "max_step",
-                                                            "tol", "max_iter", "pad_radius")])
+        out, view = self.out, rk.OUT.view
+        self._T, self._J, self._wrench = view(out, "T"), view(out, "J"), view(out, "wrench")
+        self._rate_q_dot, self._rate_residual = view(out, "rate_q_dot"), view(out, "rate_residual")
+        self._params: tuple = ()  # the step's parameters last loaded
 
     def set_arm(self, stiffness: np.ndarray, damping: np.ndarray, avoid) -> None:
         """Pack the joint stiffness, damping and null-space objective (again only when they are
@@ -92,13 +93,20 @@ class ArmStepper:
              max_step: float, tol: float, max_iter: int, pad_radius: float) -> None:
         """The arm's state and the step's inputs; ``command`` is the twist (mode
         :data:`RATES`), the joint velocities (:data:`JOINT_VELOCITIES`) or None (:data:`HOLD`)."""
+        io = self.io
         self._q_eq[:] = q_eq
         self._q[:] = q
         if mode == RATES:
             self._twist[:] = command
         elif mode == JOINT_VELOCITIES:
             self._q_dot_cmd[:] = command
-        self.io[self._inputs] = (dt, mode, ik_damping, sigma_threshold, max_step, tol, max_iter, pad_radius)
+        io[rk.I_DT] = dt
+        io[rk.I_MODE] = mode
+        params = (ik_damping, sigma_threshold, max_step, tol, max_iter, pad_radius)
+        if params != self._params:
+            rk.IO.pack(io, ik_damping=ik_damping, sigma_threshold=sigma_threshold, max_step=max_step, tol=tol,
+                       max_iter=max_iter, pad_radius=pad_radius)
+            self._params = params
 
     def rates(self, kin: np.ndarray) -> bool:
         """Resolved rates of the loaded twist at ``q_eq`` into the output; False when a joint
@@ -123,9 +131,9 @@ class ArmStepper:
     # ------------------------------------------------------------------ results
     def rate_solution(self) -> RateSolution:
         """The resolved rates :meth:`rates` found (no joint saturated)."""
-        out, lay = self.out, rk.OUT
-        return RateSolution(lay.view(out, "rate_q_dot").copy(), float(out[rk.O_LAM]), float(out[rk.O_SMIN]),
-                            np.zeros(7, dtype=bool), float(out[rk.O_SCALE]), lay.view(out, "rate_residual").copy())
+        out = self.out
+        return RateSolution(self._rate_q_dot.copy(), float(out[rk.O_LAM]), float(out[rk.O_SMIN]),
+                            np.zeros(7, dtype=bool), float(out[rk.O_SCALE]), self._rate_residual.copy())
 
     def q_eq(self) -> np.ndarray:
         """The equilibrium posture after the step (rad)."""
@@ -137,12 +145,11 @@ class ArmStepper:
 
     def pose_jacobian(self) -> tuple[np.ndarray, np.ndarray]:
         """The pad pose ``T_gs`` (4x4) and the spatial Jacobian (6x7) at the step's end."""
-        out = self.out
-        return rk.OUT.view(out, "T").copy(), rk.OUT.view(out, "J").copy()
+        return self._T.copy(), self._J.copy()
 
     def solve(self) -> tuple[np.ndarray, float, int, int, bool]:
         """The equilibrium's wrench (N, N m), largest residual (N m), Newton iterations,
         contact evaluations and whether it converged."""
         out = self.out
-        return (rk.OUT.view(out, "wrench").copy(), float(out[rk.O_RES]), int(out[rk.O_IT]), int(out[rk.O_EVAL]),
+        return (self._wrench.copy(), float(out[rk.O_RES]), int(out[rk.O_IT]), int(out[rk.O_EVAL]),
                 bool(out[rk.O_CONV]))
