@@ -339,28 +339,6 @@ def to_local(objf, o, P, m, L):
 # ---------------------------------------------------------------------- the pad's contact, in stages
 # Each stage has one caller, pad_contact, and is inlined into it at numba's level.
 @njit(**INLINE)
-def _is_last_pose(T, last):
-    """Whether ``last`` holds the result for exactly the pose ``T``."""
-    hit = last[LAST_VALID] != 0.0
-    for i in range(4):
-        for k in range(4):
-            hit = hit and T[i, k] == last[LAST_T + 4 * i + k]
-    return hit
-
-
-@njit(**INLINE)
-def _corners_drift(T, corners, broad, cw):
-    """The pad's corners at ``T`` (world, m) into ``cw`` (4x3); returns the largest change of a
-    coordinate since the corners the broad phase was made for."""
-    drift = 0.0
-    for c in range(4):
-        for k in range(3):
-            cw[c, k] = corners[c, 0] * T[k, 0] + corners[c, 1] * T[k, 1] + corners[c, 2] * T[k, 2] + T[k, 3]
-            drift = max(drift, abs(cw[c, k] - broad[B_CORNERS + 3 * c + k]))
-    return drift
-
-
-@njit(**INLINE)
 def _broad_phase(T, centres, padf, objf, grids, near, nnear, broad, cw, P, L, D):
     """Per object, the tactels that can touch it: those whose centre (at ``T``) is within the
     tactel's reach plus the margin of the object's surface, listed in ``near[o, :nnear[o]]``
@@ -518,20 +496,6 @@ def _add_springs(w, K, S, scale, cnt, sd, sdp0, sdp1, sdp2, sp0, sp1, sp2, n0, n
             K[3 + a, 3 + b] += scale * acc
 
 
-@njit(**INLINE)
-def _keep_last(last, T, w, K, deepest):
-    """Keep the result for the pose ``T``: the wrench, stiffness and deepest penetration."""
-    last[LAST_VALID] = 1.0
-    for i in range(4):
-        for k in range(4):
-            last[LAST_T + 4 * i + k] = T[i, k]
-    for i in range(6):
-        last[LAST_W + i] = w[i]
-        for k in range(6):
-            last[LAST_K + 6 * i + k] = K[i, k]
-    last[LAST_DEEPEST] = deepest
-
-
 @njit(**OPTS)
 def pad_contact(T, data, wK):
     """Penetration of the pad's samples at pose ``T`` into the objects: the force image and the
@@ -553,13 +517,21 @@ def pad_contact(T, data, wK):
     penetration (m), also put in ``job``.
     """
     centres, offsets, corners, padf, objf, grids, near, nnear, broad, force, job, last, last_force = data
-    if not _is_last_pose(T, last):
+    hit = last[LAST_VALID] != 0.0  # the result for exactly this pose is kept
+    for i in range(4):
+        for k in range(4):
+            hit = hit and T[i, k] == last[LAST_T + 4 * i + k]
+    if not hit:
         w = np.zeros(6)
         K = np.zeros((6, 6))
         nt = centres.shape[0]
         ns = offsets.shape[0]
         cw = np.empty((4, 3))
-        drift = _corners_drift(T, corners, broad, cw)
+        drift = 0.0  # the largest move of a corner's coordinate since the broad phase (m)
+        for c in range(4):
+            for k in range(3):
+                cw[c, k] = corners[c, 0] * T[k, 0] + corners[c, 1] * T[k, 1] + corners[c, 2] * T[k, 2] + T[k, 3]
+                drift = max(drift, abs(cw[c, k] - broad[B_CORNERS + 3 * c + k]))
         P = np.empty((nt * ns, 3))  # world points
         L = np.empty((nt * ns, 3))  # the same in an object's frame
         D = np.empty(nt * ns)  # their depths or distances
@@ -579,7 +551,15 @@ def pad_contact(T, data, wK):
             deepest = max(deepest, deep)
             if cnt > 0:
                 _add_springs(w, K, S, scale, cnt, sd, sdp0, sdp1, sdp2, sp0, sp1, sp2, T[0, 2], T[1, 2], T[2, 2])
-        _keep_last(last, T, w, K, deepest)
+        last[LAST_VALID] = 1.0  # keep the result for this pose
+        for i in range(4):
+            for k in range(4):
+                last[LAST_T + 4 * i + k] = T[i, k]
+        for i in range(6):
+            last[LAST_W + i] = w[i]
+            for k in range(6):
+                last[LAST_K + 6 * i + k] = K[i, k]
+        last[LAST_DEEPEST] = deepest
     if job[J_FORCES] != 0.0:
         for i in range(last_force.shape[0]):
             force[i] = last_force[i]
