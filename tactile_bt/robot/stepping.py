@@ -67,6 +67,11 @@ class ArmStepper:
         self.io = np.zeros(rk.IO.size)
         self.out = np.zeros(rk.OUT.size)
         self.work = np.zeros(rk.WORK.size)
+        self._params: tuple = ()  # the step's parameters last loaded
+        self._make_views()
+
+    def _make_views(self) -> None:
+        """The fields the step reads and writes, as views of the packed arrays."""
         # the trial pose the contact is asked for, and where its wrench and stiffness go
         self._trial_pose = rk.WORK.view(self.work, "T_t")
         self._trial_contact = rk.WORK.span(self.work, "w_t", "Kx_t")
@@ -79,7 +84,14 @@ class ArmStepper:
         out, view = self.out, rk.OUT.view
         self._T, self._J, self._wrench = view(out, "T"), view(out, "J"), view(out, "wrench")
         self._rate_q_dot, self._rate_residual = view(out, "rate_q_dot"), view(out, "rate_residual")
-        self._params: tuple = ()  # the step's parameters last loaded
+
+    def __getstate__(self) -> dict:
+        # the packed arrays only: a copy's views must look into the copy's arrays
+        return {k: v for k, v in self.__dict__.items() if k in ("_arm_key", "_arm", "io", "out", "work", "_params")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._make_views()
 
     def set_arm(self, stiffness: np.ndarray, damping: np.ndarray, avoid) -> None:
         """Pack the joint stiffness, damping and null-space objective (again only when they are

@@ -155,10 +155,6 @@ class SensorModel:
         self._broad = np.zeros(kernels.BROAD.size)
         self._job = np.zeros(kernels.JOB.size)
         self._last = np.zeros(kernels.LAST.size)
-        self._valid = (kernels.BROAD.view(self._broad, "valid"), kernels.LAST.view(self._last, "valid"))
-        # what pad_contact is asked for: the tactel forces, the contact wrench and stiffness
-        self._ask_forces = kernels.JOB.view(self._job, "forces")
-        self._ask_contact = kernels.JOB.view(self._job, "contact")
         self._last_force = np.zeros(n)
 
     # ------------------------------------------------------------------------------------
@@ -171,10 +167,16 @@ class SensorModel:
         self._packed = ()
         self._forget()
 
+    def _ask(self, forces: bool) -> None:
+        """What :func:`~tactile_bt.sim.kernels.pad_contact` computes: the tactel forces, or the
+        contact wrench and stiffness."""
+        self._job[kernels.J_FORCES] = 1.0 if forces else 0.0
+        self._job[kernels.J_CONTACT] = 0.0 if forces else 1.0
+
     def _forget(self) -> None:
         """Mark the broad phase and the last pose's result as stale."""
-        for valid in self._valid:
-            valid[0] = 0.0
+        self._broad[kernels.B_VALID] = 0.0
+        self._last[kernels.LAST_VALID] = 0.0
 
     def _prepare(self, T_gs, objects) -> None:
         """The pose and the objects as the kernel reads them (objects repacked when the list
@@ -211,8 +213,7 @@ class SensorModel:
         """The tactel forces at ``_T`` (spread by the foam) into ``_force``; returns the deepest
         penetration (m).  The kernels are always called with arguments of the same types (one
         compiled version each)."""
-        self._ask_forces[0] = 1.0
-        self._ask_contact[0] = 0.0
+        self._ask(forces=True)
         deepest = kernels.pad_contact(self._T, self._args, self._wK)
         if self._spread_rows is not None:
             kernels.foam_spread(self._force, self._Gr, self._Gc, self._spread_radius, *self.pad.shape)
@@ -274,8 +275,7 @@ class SensorModel:
             ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
         """
         self._prepare(T_gs, objects)
-        self._ask_forces[0] = 0.0
-        self._ask_contact[0] = 1.0
+        self._ask(forces=False)
         kernels.pad_contact(self._T, self._args, self._wK)
         return kernels.CONTACT.view(self._wK, "wrench").copy(), kernels.CONTACT.view(self._wK, "stiffness").copy()
 
@@ -285,8 +285,7 @@ class SensorModel:
         ``kernel(T, data, wK)`` writes the wrench and stiffness at the pad pose ``T`` into ``wK``
         (:func:`tactile_bt.sim.kernels.pad_contact`, set to compute those and not the forces)."""
         self._prepare(None, objects)
-        self._ask_forces[0] = 0.0
-        self._ask_contact[0] = 1.0
+        self._ask(forces=False)
         return kernels.pad_contact, self._args
 
     def spread(self, force: np.ndarray) -> np.ndarray:

@@ -90,3 +90,13 @@ def test_the_stepper_loads_the_state_where_the_kernels_read_it():
     assert np.array_equal(io[rk.I_QEQ:rk.I_QEQ + 7], q_eq) and np.array_equal(io[rk.I_Q:rk.I_Q + 7], q)
     assert np.array_equal(io[rk.I_TWIST:rk.I_TWIST + 6], twist)
     assert (io[rk.I_DT], io[rk.I_MODE], io[rk.I_EPS], io[rk.I_ITER], io[rk.I_RADIUS]) == (0.004, 2.0, 0.06, 60, 0.05)
+
+
+def test_a_copied_stepper_writes_into_its_own_arrays():
+    import copy
+
+    stepper = ArmStepper()
+    twin = copy.deepcopy(stepper)
+    twin.load(np.ones(7), np.ones(7), 0.004, 1.0, np.ones(7), ik_damping=0.05, sigma_threshold=0.05, max_step=1e-3,
+              tol=1e-4, max_iter=60, pad_radius=0.05)
+    assert np.all(twin.io[rk.I_QEQ:rk.I_QEQ + 7] == 1.0) and np.all(stepper.io == 0.0)
