@@ -2,9 +2,9 @@
 
 While the pad slides along a cable, the cable's imprint is a line through the pad centre along
 the direction of travel that crosses the pad from border to border (centring and edge alignment
-keep it there). Each cycle the leaf judges whether the contact still looks like that, from the part of it within
-``window_m`` of the pad centre along the travel (a bend ahead of the pad centre is not yet the
-pad's business):
+keep it there). Each cycle the leaf judges whether the contact still looks like that, from the
+part of it within ``window_m`` of the pad centre along the travel (a bend ahead of the pad
+centre is not yet the pad's business; the shape comes from :mod:`.line_shape`):
 
 * **a line**: its tactels are spread along one axis (across it at most ``max_width_m`` wide,
   the width of a uniform band with the same spread) and cover at most ``max_area_ratio`` of the
@@ -25,8 +25,9 @@ contact stops being the line (a patch, the pad's edge on the table, no contact) 
 line — turning away faster than the pad follows, sliding out sideways, flattening into a patch,
 another line in its place, contact lost — is a loss, and so is a pad that stops advancing along
 the line (less than ``min_headway_m`` in ``stall_s``: e.g. the arm holds a joint on its limit):
-FAILURE with a message that says what was lost where (``cable lost: the line left the pad sideways 212 mm along the path``), so that the
-tree can back up and re-acquire the line (:mod:`tactile_bt.tree.behaviours.cable_recovery`).
+FAILURE with a message that says what was lost where (``cable lost: the line left the pad
+sideways 212 mm along the path``), so that the tree can back up and re-acquire the line
+(:mod:`tactile_bt.tree.behaviours.cable_recovery`).
 
 Every cycle the leaf writes whether the contact is the followed line to ``on_line_key``
 (``record_contacts: {only_when: /cable/on_line}``), appends the pad pose of on-line cycles to
