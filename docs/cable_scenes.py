@@ -161,10 +161,10 @@ def main() -> None:
         files = []
         for i in range(args.random):
             path = folder / f"random_cable_{i}.yaml"
-            while True:  # a cable whose start the placed arm cannot reach is drawn again
+            while True:  # a cable no arm base reaches, or whose start the placed arm cannot, is drawn again
                 path.write_text(random_cable(rng, i))
-                place_base(path)
                 try:
+                    place_base(path)
                     load_scene(path)
                     break
                 except (YamlError, ValueError):
