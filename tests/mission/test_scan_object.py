@@ -20,7 +20,6 @@ from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.testing import LeafHarness, contact_frame, make_features
 from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
                                         RollTo, SquareToSlope, StripeEnd, TableClearance, TableOffset)
-from tactile_bt.tree.behaviours.frontier import FrontierMap
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.blackboard import POSE
 
@@ -285,42 +284,6 @@ def disc(radius: float, centre=(0.0, 0.0), z: float = 0.05, step: float = 0.001,
     keep = X**2 + Y**2 <= radius**2
     pts = np.column_stack((X[keep] + centre[0], Y[keep] + centre[1], np.full(keep.sum(), z)))
     return pts, np.tile(np.asarray(normal, float) / np.linalg.norm(normal), (len(pts), 1))
-
-
-def test_frontier_is_the_rim_of_the_touched_disc_with_outward_directions():
-    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.1)
-    m.add(*disc(0.02))
-    rows, cols, out = m.frontier()
-    xy = m.centre_of(rows, cols)
-    r = np.linalg.norm(xy, axis=1)
-    assert len(rows) > 40
-    assert np.all(np.abs(r - 0.02) < 0.004)
-    radial = xy / r[:, None]
-    assert np.all(np.sum(radial * out, axis=1) > 0.7)
-
-
-def test_thin_gaps_and_small_holes_are_not_frontier_but_a_wide_gap_is():
-    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
-    pts, normals = disc(0.03, step=0.0005)
-    for lo, hi in ((0.0, 0.002), (0.011, 0.0172)):  # a gap one cell wide, one three cells wide
-        keep = ~((pts[:, 0] >= lo) & (pts[:, 0] < hi))
-        pts, normals = pts[keep], normals[keep]
-    hole = (np.abs(pts[:, 0] + 0.010) < 0.0015) & (np.abs(pts[:, 1]) < 0.001)  # a small hole
-    m.add(pts[~hole], normals[~hole])
-    rows, cols, _ = m.frontier()
-    x = m.centre_of(rows, cols)[:, 0]
-    inner = np.linalg.norm(m.centre_of(rows, cols), axis=1) < 0.025
-    assert not np.any(inner & (np.abs(x - 0.001) < 0.002))     # the thin gap is covered
-    assert not np.any(inner & (np.abs(x + 0.010) < 0.003))     # the small hole too
-    assert np.any(inner & (x > 0.008) & (x < 0.02))            # the wide gap is open
-
-
-def test_blocking_covers_a_disc_and_the_neighbouring_directions_only():
-    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
-    m.block((0.01, 0.0), 0.005, (1.0, 0.0))
-    r, c = m.cell_of(np.array([[0.01, 0.0], [0.02, 0.0]])).T
-    assert m.blocked[r[0], c[0]].tolist() == [True, True, False, False, False, False, False, True]
-    assert not m.blocked[r[1], c[1]].any()
 
 
 # ----------------------------------------------------------------------------- the planner

@@ -1,8 +1,9 @@
 """Exploration by touch: choose where to slide next from what has been touched (frontiers).
 
-The ``frontier_guidance`` leaf keeps a coarse map of the touched surface: an occupancy grid in
-the table plane (world x, y; ``cell_m`` cells) filled from the mission's contact cloud
-(``/tactile/contacts``, read by duck typing: ``.points`` and ``.normals``). The *frontier* is the
+The ``frontier_guidance`` leaf keeps a coarse map of the touched surface
+(:class:`tactile_bt.contacts.frontier_map.FrontierMap`): an occupancy grid in the table plane
+(world x, y; ``cell_m`` cells) filled from the mission's contact cloud (``/tactile/contacts``,
+read by duck typing: ``.points`` and ``.normals``). The *frontier* is the
 set of touched cells next to untouched ones: an open boundary of the covered area. A frontier
 cell is *reachable* while the surface touched there is tilted less than the pad's tilt limit
 (minus a margin) and no attempt to cross it has failed. The leaf slides the pad towards the
@@ -33,23 +34,21 @@ from collections import Counter
 
 import numpy as np
 from py_trees.common import Access, Status
-from scipy import ndimage
 
+from tactile_bt.contacts.frontier_map import OPEN, FrontierMap
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
-__all__ = ["FrontierGuidance", "FrontierMap"]
+__all__ = ["FrontierGuidance"]
 
 #: Parameters passed on to the end-of-surface test (a ``stripe_end``).
 _END_PARAMETERS = ("window_s", "min_travel_m", "min_area_ratio", "max_jump_m", "max_tilt_rad", "edge_turn_rad",
                    "edge_radius_m")
 #: Ends of an attempt at an edge under the pad (its imprint reached the edge across its width).
 _EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
-#: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
-SMALL_HOLE_CELLS = 2
 #: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
 _LEVEL_MARGIN_COS = 0.02
 #: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
@@ -62,154 +61,6 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
-#: Number of direction sectors a cell is blocked in (45° each).
-SECTORS = 8
-#: 8-neighbour offsets (row = y, column = x) and their unit directions.
-_OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
-_OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
-
-
-def _sector(direction_xy: np.ndarray) -> np.ndarray:
-    """Sector index (0..SECTORS-1) of world xy directions ``(..., 2)``."""
-    angle = np.arctan2(direction_xy[..., 1], direction_xy[..., 0])
-    return np.round(angle / (2 * math.pi / SECTORS)).astype(int) % SECTORS
-
-
-class FrontierMap:
-    """Occupancy grid of the touched surface in the table plane.
-
-    ``cell_m`` cells over a square of half-size ``extent_m`` around ``centre`` (world x, y).
-    Each cell holds the number of contact samples in it, the sum of their outward normals and the
-    highest sample; ``blocked[row, col, sector]`` marks the directions in which an attempt to
-    cross the cell has failed.
-    """
-
-    def __init__(self, centre_xy, cell_m: float = 0.002, extent_m: float = 0.3) -> None:
-        self.cell_m = float(cell_m)
-        self.n = int(math.ceil(2 * extent_m / cell_m))
-        self.origin = np.asarray(centre_xy, dtype=float)[:2] - 0.5 * self.n * self.cell_m
-        self.count = np.zeros((self.n, self.n), dtype=np.int32)
-        self.normal_sum = np.zeros((self.n, self.n, 3))
-        self.z_max = np.full((self.n, self.n), -np.inf)
-        self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
-        self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
-        self._col_any = np.zeros(self.n, dtype=bool)
-
-    def cell_of(self, xy: np.ndarray) -> np.ndarray:
-        """(row, col) indices of world xy points ``(k, 2)``; may lie outside the grid."""
-        ij = np.floor((np.asarray(xy)[..., :2] - self.origin) / self.cell_m).astype(int)
-        return ij[..., ::-1]
-
-    def centre_of(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """World xy (m) of the centres of cells ``(rows, cols)``, ``(k, 2)``."""
-        return self.origin + (np.column_stack((cols, rows)) + 0.5) * self.cell_m
-
-    def add(self, points: np.ndarray, normals: np.ndarray) -> int:
-        """Add contact samples (world points and outward normals, ``(k, 3)``); returns how many
-        fell inside the grid."""
-        rc = self.cell_of(points)
-        inside = np.all((rc >= 0) & (rc < self.n), axis=1)
-        rows, cols = rc[inside, 0], rc[inside, 1]
-        np.add.at(self.count, (rows, cols), 1)
-        np.add.at(self.normal_sum, (rows, cols), normals[inside])
-        np.maximum.at(self.z_max, (rows, cols), points[inside, 2])
-        self._row_any[rows] = True
-        self._col_any[cols] = True
-        return int(inside.sum())
-
-    def _window(self) -> tuple[slice, slice]:
-        """The part of the grid around the touched cells (one cell of margin)."""
-        rows = np.flatnonzero(self._row_any)
-        cols = np.flatnonzero(self._col_any)
-        if not len(rows):
-            return slice(0, 0), slice(0, 0)
-        return (slice(max(rows[0] - 1, 0), min(rows[-1] + 2, self.n)),
-                slice(max(cols[0] - 1, 0), min(cols[-1] + 2, self.n)))
-
-    @staticmethod
-    def _touched(count: np.ndarray) -> np.ndarray:
-        t = count > 0
-        # gaps one cell wide between touched cells (either way, or diagonally)
-        p = np.pad(t, 1)
-        h, w = t.shape
-
-        def at(dy: int, dx: int) -> np.ndarray:
-            return p[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + w]
-
-        t = t | (at(0, -1) & at(0, 1)) | (at(-1, 0) & at(1, 0)) | (at(-1, -1) & at(1, 1)) | (at(-1, 1) & at(1, -1))
-        holes, n = ndimage.label(~t)
-        if n:
-            sizes = np.bincount(holes.ravel())
-            small = sizes <= SMALL_HOLE_CELLS
-            small[0] = False
-            t = t | small[holes]
-        return t
-
-    @property
-    def touched(self) -> np.ndarray:
-        """Cells holding a sample, the gaps one cell wide between them and the holes of at most
-        :data:`SMALL_HOLE_CELLS` cells among them: with the imprint sampled every 2.5 mm on the
-        pad, a line of 2 mm cells may stay empty between samples that cover it (within 2 mm)
-        from both sides."""
-        out = np.zeros((self.n, self.n), dtype=bool)
-        w = self._window()
-        out[w] = self._touched(self.count[w])
-        return out
-
-    def tilt(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """Tilt (rad) from the vertical of the mean outward normal in the cells ``(rows, cols)``
-        (NaN where untouched)."""
-        s = self.normal_sum[rows, cols]
-        norm = np.linalg.norm(s, axis=-1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.arccos(np.clip(s[..., 2] / norm, -1.0, 1.0))
-
-    def frontier(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows, columns and outward directions ``(k, 2)`` (world xy, unit) of the frontier
-        cells: touched cells with an untouched 8-neighbour; outward points to the untouched
-        ones."""
-        w = self._window()
-        t = self._touched(self.count[w])
-        h, wd = t.shape
-        padded = np.pad(~t, 1, constant_values=True)
-        out = np.zeros((h, wd, 2))
-        for (dy, dx), d in zip(_OFFSETS, _OFFSET_DIRS):
-            out[padded[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + wd]] += d
-        norm = np.linalg.norm(out, axis=2)
-        rows, cols = np.nonzero(t & (norm > 1e-9))
-        vec = out[rows, cols] / norm[rows, cols, None]
-        return rows + w[0].start, cols + w[1].start, vec
-
-    def block_cells(self, rows: np.ndarray, cols: np.ndarray, directions_xy: np.ndarray) -> None:
-        """Block the cells ``(rows, cols)`` each for crossings in its own direction (``(k, 2)``,
-        world xy) and the two neighbouring sectors."""
-        s = _sector(np.asarray(directions_xy, dtype=float))
-        for k in (-1, 0, 1):
-            self.blocked[rows, cols, (s + k) % SECTORS] = True
-
-    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None) -> int:
-        """Block the cells within ``radius_m`` of ``centre_xy`` (and the cells ``rows, cols``)
-        for crossings in ``direction_xy`` and its two neighbouring sectors; returns how many
-        cells were newly blocked in the direction's own sector."""
-        d = np.asarray(direction_xy, dtype=float)[:2]
-        s = int(_sector(d))
-        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
-        r = int(math.ceil(radius_m / self.cell_m))
-        lo = np.maximum(c - r, 0)
-        hi = np.minimum(c + r + 1, self.n)
-        if np.all(hi > lo):
-            rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
-            inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
-            rr, cc = rr[inside], cc[inside]
-        else:
-            rr = cc = np.zeros(0, dtype=int)
-        if rows is not None:
-            rr = np.concatenate((rr, np.asarray(rows, dtype=int)))
-            cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
-        before = int(self.blocked[rr, cc, s].sum())
-        for k in (s - 1, s, s + 1):
-            self.blocked[rr, cc, k % SECTORS] = True
-        return int(self.blocked[rr, cc, s].sum()) - before
 
 
 class FrontierGuidance(TactileBehaviour):
@@ -380,16 +231,15 @@ class FrontierGuidance(TactileBehaviour):
             self.map.add(cloud.points[self._seen:n], cloud.normals[self._seen:n])
             self._seen = n
 
+    def _classify(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows, columns, outward directions and reasons of the frontier cells (see
+        :meth:`FrontierMap.classify`; :data:`OPEN` for the reachable, unblocked ones)."""
+        return self.map.classify(self.max_tilt_rad - self.tilt_margin_rad, self.table_z_m, self.table_clearance_m)
+
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rows, columns and outward directions of the reachable, unblocked frontier cells."""
-        m = self.map
-        rows, cols, out = m.frontier()
-        if len(rows) == 0:
-            return rows, cols, out
-        ok = m.tilt(rows, cols) <= self.max_tilt_rad - self.tilt_margin_rad
-        if math.isfinite(self.table_z_m):  # the object's foot at the table is no frontier
-            ok &= m.z_max[rows, cols] > self.table_z_m + self.table_clearance_m
-        ok &= ~m.blocked[rows, cols, _sector(out)]
+        rows, cols, out, reason = self._classify()
+        ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
 
     # -- the pad -----------------------------------------------------------------------------
@@ -534,8 +384,9 @@ class FrontierGuidance(TactileBehaviour):
         else:  # too steep, the table, stuck: only this part of the frontier is out of reach
             radius, centre = self.local_block_radius_m, point
         d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
-        self.map.block(centre[:2], radius, d)
-        self.map.block(point[:2], 2 * self.cell_m, d)
+        cause = cause or why
+        self.map.block(centre[:2], radius, d, cause=cause)
+        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
         if self.target is not None:
             # the target and the frontier on the way to it, out of reach along this way
             rows, cols, out = self.map.frontier()
@@ -545,9 +396,9 @@ class FrontierGuidance(TactileBehaviour):
             u = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
             on_way = np.linalg.norm(xy - (a + u[:, None] * ab), axis=1) <= self.local_block_radius_m
             on_way |= (rows == self.target[0]) & (cols == self.target[1])
-            self.map.block_cells(rows[on_way], cols[on_way], out[on_way])
+            self.map.block_cells(rows[on_way], cols[on_way], out[on_way], cause)
         self.blocks += 1
-        self.ends[cause or why] += 1
+        self.ends[cause] += 1
         self.last_end = why
         self._avoid = np.array(d, dtype=float)
         self.target = None
