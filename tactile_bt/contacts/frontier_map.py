@@ -20,7 +20,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "sector"]
+__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "EXPLAINING", "sector", "describe_left"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -30,6 +30,11 @@ SECTORS = 8
 OPEN = ""
 #: The reason of a frontier cell without a sample of its own (a gap between samples).
 GAP = "gap"
+#: Reasons of the frontier left that explain it (see :meth:`FrontierMap.classify`): the object's
+#: foot at the table, a surface steeper than the pad may tilt. Every other reason (an edge, a
+#: stall, a jump, a lost contact, a target not reached in time, or no attempt at all) leaves that
+#: frontier unexplained: the surface beyond may go on.
+EXPLAINING = frozenset({"table", "tilt"})
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
@@ -39,6 +44,19 @@ def sector(direction_xy: np.ndarray) -> np.ndarray:
     """Sector index (0..SECTORS-1) of world xy directions ``(..., 2)``."""
     angle = np.arctan2(direction_xy[..., 1], direction_xy[..., 0])
     return np.round(angle / (2 * math.pi / SECTORS)).astype(int) % SECTORS
+
+
+def describe_left(left: dict) -> str:
+    """One line for the frontier left, ``{"explained": {reason: m}, "unexplained": {reason: m}}``:
+    "35 mm unexplained (20 edge, 15 open); 120 mm explained (100 table, 20 tilt)"."""
+    parts = []
+    for kind in ("unexplained", "explained"):
+        lengths = left.get(kind) or {}
+        total = sum(lengths.values())
+        if total > 0:
+            detail = ", ".join(f"{v * 1e3:.0f} {k or 'open'}" for k, v in sorted(lengths.items(), key=lambda kv: -kv[1]))
+            parts.append(f"{total * 1e3:.0f} mm {kind} ({detail})")
+    return "; ".join(parts) or "none"
 
 
 class FrontierMap:

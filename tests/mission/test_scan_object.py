@@ -466,6 +466,42 @@ def test_a_scan_that_ends_by_touch_reports_why():
     assert root_outcome(plain) == ("success", "")
 
 
+def test_no_frontier_left_is_a_failure_while_edges_leave_it_unexplained():
+    # a flat touched disc whose rim every attempt ended at, at an edge: the surface beyond may go
+    # on, so the scan has no evidence that it is done
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0))
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause="edge")
+    leaf.target = None
+    status = Status.RUNNING
+    for _ in range(10):
+        status = h.tick(make_features())
+        if status != Status.RUNNING:
+            break
+    assert status == Status.FAILURE
+    assert "unexplained" in leaf.feedback_message and "edge" in leaf.feedback_message
+    left = leaf.frontier_left()
+    assert left["unexplained"]["edge"] > 2 * math.pi * 0.02 * 0.6 and not left["explained"]
+
+
+@pytest.mark.parametrize("unexplained, status", [({"edge": 0.05}, Status.FAILURE), ({}, Status.SUCCESS)])
+def test_a_stalled_coverage_with_unexplained_frontier_is_no_success(unexplained, status):
+    leaf = CoverageStalled(window_s=1.0, min_samples=10, frontier_key="/scan/frontier_left")
+    h = LeafHarness(leaf, pose=pose(DOWN, (0.0, 0.0, 0.05)))
+    h.contacts.extend(*disc(0.01), 2000.0, 0.0)  # and no more: the coverage stalls
+    h.set("/scan/frontier_left", {"explained": {"table": 0.2}, "unexplained": unexplained})
+    result = Status.RUNNING
+    for _ in range(400):
+        result = h.tick(make_features())
+        if result != Status.RUNNING:
+            break
+    assert result == status
+    assert leaf.feedback_message.startswith("coverage stalled")
+    assert ("50 mm unexplained (50 edge)" in leaf.feedback_message) == (status == Status.FAILURE)
+    assert "200 mm explained (200 table)" in leaf.feedback_message
+
+
 # ------------------------------------------------------------------------- the edge test
 
 

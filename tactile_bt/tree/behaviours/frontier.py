@@ -19,10 +19,15 @@ frontier cells under the pad whose open side faces the way the pad was going are
 for that direction, and the next target is chosen away from it. A recovering ``table_clearance``
 guard's alarm (``alarm_key``: the pad's corner has come too close to the table after all) ends
 an attempt the same way, the frontier towards the corner blocked as the table's, and the pad
-backs off away from the corner. The leaf succeeds when no reachable frontier is left, and its
-message counts the ends by cause (the table, the tilt limit, an edge ...): what explains the
-frontier left open. It knows nothing of the object's size, pose or shape beyond what the pad
-has touched.
+backs off away from the corner.
+
+When no reachable frontier is left, the leaf sums the frontier left by reason
+(:meth:`FrontierGuidance.frontier_left`, also on ``/scan/frontier_left`` for the report and for
+``coverage_stalled``): the object's foot at the table and a surface steeper than the tilt limit
+explain it; an edge, a stall, a jump, a lost contact or a target not reached in time do not
+(the surface beyond may go on). It succeeds only when at most ``max_unexplained_m`` is left
+unexplained, and fails otherwise, its message naming what is left. It knows nothing of the
+object's size, pose or shape beyond what the pad has touched.
 
 Layer: tree.
 """
@@ -35,14 +40,14 @@ from collections import Counter
 import numpy as np
 from py_trees.common import Access, Status
 
-from tactile_bt.contacts.frontier_map import OPEN, FrontierMap
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, FrontierMap, describe_left
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
-__all__ = ["FrontierGuidance"]
+__all__ = ["FrontierGuidance", "FRONTIER_LEFT_KEY"]
 
 #: Parameters passed on to the end-of-surface test (a ``stripe_end``).
 _END_PARAMETERS = ("window_s", "min_travel_m", "min_area_ratio", "max_jump_m", "max_tilt_rad", "edge_turn_rad",
@@ -54,6 +59,8 @@ _LEVEL_MARGIN_COS = 0.02
 #: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
 _SINKING_M = 0.0005
 _ZERO_TWIST = np.zeros(6)
+#: Blackboard key of the frontier left (see :meth:`FrontierGuidance.frontier_left`).
+FRONTIER_LEFT_KEY = "/scan/frontier_left"
 #: Time constant (s) of the low-pass filter on the contact point the planner steers from.
 _POINT_FILTER_S = 0.1
 #: The guidance slows down linearly from full speed with the contact this far (m) from the
@@ -134,6 +141,10 @@ class FrontierGuidance(TactileBehaviour):
     attempt_s : float
         Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back
         off (s).
+    max_unexplained_m : float
+        When no reachable frontier is left, the leaf succeeds only if at most this much of the
+        frontier left (m, in cell edges) has no explaining reason (:data:`EXPLAINING`), and
+        fails otherwise, naming what is left.
     """
 
     uses = frozenset({"cop"})
@@ -147,7 +158,8 @@ class FrontierGuidance(TactileBehaviour):
                         "min_area_ratio": between(0, 1, high_open=True), "max_jump_m": NON_NEGATIVE,
                         "edge_turn_rad": between(0, math.pi), "edge_radius_m": NON_NEGATIVE,
                         "block_radius_m": NON_NEGATIVE, "local_block_radius_m": NON_NEGATIVE,
-                        "retreat_m": NON_NEGATIVE, "replan_s": POSITIVE, "attempt_s": POSITIVE}
+                        "retreat_m": NON_NEGATIVE, "replan_s": POSITIVE, "attempt_s": POSITIVE,
+                        "max_unexplained_m": NON_NEGATIVE}
 
     def __init__(self, name: str = "frontier_guidance", key: str = "/scan/guidance", speed_mps: float = 0.02,
                  cell_m: float = 0.002, extent_m: float = 0.3, max_tilt_rad: float = math.radians(70.0),
@@ -157,12 +169,13 @@ class FrontierGuidance(TactileBehaviour):
                  min_travel_m: float = 0.004, min_area_ratio: float = 0.5, max_jump_m: float = 0.01,
                  edge_turn_rad: float = math.radians(10.0), edge_radius_m: float = 0.01,
                  block_radius_m: float = 0.0, local_block_radius_m: float = 0.01, retreat_m: float = 0.005,
-                 replan_s: float = 0.2, attempt_s: float = 4.0) -> None:
+                 replan_s: float = 0.2, attempt_s: float = 4.0, max_unexplained_m: float = 0.01) -> None:
         super().__init__(name)
         self.key = normalise_key(key)
         self.table_key = normalise_key(table_key)
         self._writer = self.attach_blackboard_client(name=f"{name}/guidance")
         self._writer.register_key(key=self.key, access=Access.WRITE)
+        self._writer.register_key(key=FRONTIER_LEFT_KEY, access=Access.WRITE)
         self._setup = self.attach_blackboard_client(name=f"{name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self.alarm_key = normalise_key(alarm_key)
@@ -175,7 +188,8 @@ class FrontierGuidance(TactileBehaviour):
                      ("window_s", window_s), ("min_travel_m", min_travel_m), ("min_area_ratio", min_area_ratio),
                      ("max_jump_m", max_jump_m), ("edge_turn_rad", edge_turn_rad), ("edge_radius_m", edge_radius_m),
                      ("block_radius_m", block_radius_m), ("local_block_radius_m", local_block_radius_m),
-                     ("retreat_m", retreat_m), ("replan_s", replan_s), ("attempt_s", attempt_s)):
+                     ("retreat_m", retreat_m), ("replan_s", replan_s), ("attempt_s", attempt_s),
+                     ("max_unexplained_m", max_unexplained_m)):
             self.set_parameter(k, v)
         #: The map of the touched surface (None before the first contact sample).
         self.map: FrontierMap | None = None
@@ -195,6 +209,8 @@ class FrontierGuidance(TactileBehaviour):
         #: Ends of attempts by cause ("table", "tilt", "edge", "stall", "time", ...): what
         #: explains the frontier left open.
         self.ends: Counter = Counter()
+        #: Length (m) of the frontier by reason at the last choice (see :meth:`frontier_left`).
+        self.left: dict[str, float] = {}
         self._alarmed = False  # backing off from the guard's current alarm
         self._state = "waiting for contact"
         self._reset_motion()
@@ -239,8 +255,21 @@ class FrontierGuidance(TactileBehaviour):
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rows, columns and outward directions of the reachable, unblocked frontier cells."""
         rows, cols, out, reason = self._classify()
+        names, counts = np.unique(reason[reason != GAP].astype(str), return_counts=True)
+        self.left = {str(k): float(c) * self.cell_m for k, c in zip(names, counts)}
+        write(FRONTIER_LEFT_KEY, self.frontier_left())
         ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
+
+    def frontier_left(self) -> dict:
+        """The frontier left at the last choice, ``{"explained": {reason: m}, "unexplained":
+        {reason: m}}`` (lengths in cell edges; the reason "" is frontier still open)."""
+        return {"explained": {k: v for k, v in self.left.items() if k in EXPLAINING},
+                "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING}}
+
+    def unexplained_m(self) -> float:
+        """Length (m) of the frontier left without an explaining reason."""
+        return sum(v for k, v in self.left.items() if k not in EXPLAINING)
 
     # -- the pad -----------------------------------------------------------------------------
     def _contact_point(self) -> np.ndarray | None:
@@ -488,8 +517,12 @@ class FrontierGuidance(TactileBehaviour):
                 if not self._choose(point):
                     self._guide(None)
                     explained = f": {self.explained()}" if self.ends else ""
-                    self.feedback_message = (f"no reachable frontier left ({self.attempts} targets, "
-                                             f"{self.blocks} ends of the surface{explained})")
+                    counts = f"{self.attempts} targets, {self.blocks} ends of the surface{explained}"
+                    left = describe_left(self.frontier_left())
+                    if self.unexplained_m() > self.max_unexplained_m:
+                        self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
+                        return Status.FAILURE
+                    self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"
                     return Status.SUCCESS
                 if self._retreat is not None and self._retreating(point):
                     return Status.RUNNING

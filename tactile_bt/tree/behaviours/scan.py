@@ -21,8 +21,9 @@ from typing import Literal, Sequence
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt.contacts.frontier_map import describe_left
 from tactile_bt.tree.behaviours.base import TactileBehaviour, norm
-from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, write
+from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or, write
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["ScanDirection", "StripeEnd", "CoverageStalled", "tangent_guidance"]
@@ -347,15 +348,29 @@ class CoverageStalled(TactileBehaviour):
         Least relative growth of the cloud within the window (0.02 = 2 %).
     min_samples : int
         The cloud must hold at least this many samples before the test applies.
+    frontier_key : str or None
+        Blackboard key of a frontier planner's frontier left (``frontier_guidance`` writes
+        ``/scan/frontier_left``: lengths in m by reason, ``explained`` and ``unexplained``).
+        With it, a stalled coverage that leaves more than ``max_unexplained_m`` of the
+        frontier unexplained is a FAILURE that names it, not a SUCCESS. None: no such test.
+    max_unexplained_m : float
+        See ``frontier_key`` (m).
     """
 
-    parameter_bounds = {"window_s": POSITIVE, "min_growth": NON_NEGATIVE, "min_samples": NON_NEGATIVE}
+    fixed_parameters = frozenset({"name", "frontier_key"})
+    parameter_bounds = {"window_s": POSITIVE, "min_growth": NON_NEGATIVE, "min_samples": NON_NEGATIVE,
+                        "max_unexplained_m": NON_NEGATIVE}
     #: Its SUCCESS ends a scan: the mission reports its message as the reason.
     reports_success = True
 
     def __init__(self, name: str = "coverage_stalled", window_s: float = 10.0, min_growth: float = 0.02,
-                 min_samples: int = 100) -> None:
+                 min_samples: int = 100, frontier_key: str | None = None, max_unexplained_m: float = 0.01) -> None:
         super().__init__(name)
+        self.frontier_key = None if frontier_key is None else normalise_key(frontier_key)
+        if self.frontier_key is not None:
+            self._frontier = self.attach_blackboard_client(name=f"{name}/frontier")
+            self._frontier.register_key(key=self.frontier_key, access=Access.READ)
+        self.set_parameter("max_unexplained_m", max_unexplained_m)
         self.set_parameter("window_s", window_s)
         self.set_parameter("min_growth", min_growth)
         self.set_parameter("min_samples", min_samples)
@@ -387,7 +402,15 @@ class CoverageStalled(TactileBehaviour):
         if now - self._start >= self.window_s and size >= self.min_samples:
             grown = size - history[0][1]
             if grown < self.min_growth * size:
-                self.feedback_message = f"coverage stalled: {grown} new samples in {self.window_s:g} s ({size} in all)"
+                stalled = f"coverage stalled: {grown} new samples in {self.window_s:g} s ({size} in all)"
+                left = None if self.frontier_key is None else read_or(self.frontier_key)
+                if left is not None:
+                    from_frontier = describe_left(left)
+                    if sum(left.get("unexplained", {}).values()) > self.max_unexplained_m:
+                        self.feedback_message = f"{stalled}, with {from_frontier}"
+                        return Status.FAILURE
+                    stalled = f"{stalled}; frontier left: {from_frontier}"
+                self.feedback_message = stalled
                 return Status.SUCCESS
         self._size = size
         self._feedback = None
