@@ -19,7 +19,7 @@ from tactile_bt.mission.loop import root_outcome, success_reason
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.testing import LeafHarness, contact_frame, make_features
 from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
-                                        RollTo, SquareToSlope, StripeEnd, TableClearance, TableOffset)
+                                        RollTo, SquareToSlope, TableClearance, TableOffset)
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.blackboard import POSE
 
@@ -500,47 +500,6 @@ def test_a_stalled_coverage_with_unexplained_frontier_is_no_success(unexplained,
     assert leaf.feedback_message.startswith("coverage stalled")
     assert ("50 mm unexplained (50 edge)" in leaf.feedback_message) == (status == Status.FAILURE)
     assert "200 mm explained (200 table)" in leaf.feedback_message
-
-
-# ------------------------------------------------------------------------- the edge test
-
-
-def rolled(deg: float, axis_point, about="y") -> np.ndarray:
-    """The pad facing down, rolled ``deg`` about a world line through ``axis_point``."""
-    R = Rotation.from_euler(about, deg, degrees=True)
-    centre = R.apply(-np.asarray(axis_point)) + axis_point
-    return pose(R * DOWN, centre)
-
-
-def test_stripe_end_knows_rolling_over_an_edge_from_rolling_round_a_curve():
-    # over an edge: the pad turns about the edge line at x = 20 mm on its surface, the contact
-    # (the edge) stays put in the world
-    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
-    h = LeafHarness(leaf)
-    status = Status.RUNNING
-    for k in range(250):
-        deg = 20.0 * k / 250
-        h.set_pose(rolled(deg, (0.02, 0.0, 0.0)))
-        # the contact sits on the edge: at x = 20 mm on the pad
-        status = h.tick(make_features(cop_px=(11.5, 7.5)))
-        if status != Status.RUNNING:
-            break
-    assert status == Status.SUCCESS and leaf.cause == "edge"
-    assert 10 <= deg < 12
-    # round a cylinder of radius 50 mm: the contact moves R·θ as the pad turns
-    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
-    h = LeafHarness(leaf)
-    for k in range(250):
-        theta = math.radians(30.0 * k / 250)
-        R = Rotation.from_euler("y", theta)
-        h.set_pose(pose(R * DOWN, (0.05 * math.sin(theta), 0.0, 0.05 * math.cos(theta))))
-        assert h.tick(make_features()) == Status.RUNNING
-    # rolling back from an edge onto the face (the tilt shrinks) is no end either
-    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
-    h = LeafHarness(leaf)
-    for k in range(250):
-        h.set_pose(rolled(30.0 - 25.0 * k / 250, (0.02, 0.0, 0.0)))
-        assert h.tick(make_features(cop_px=(11.5, 7.5))) == Status.RUNNING
 
 
 # ------------------------------------------------------------------------ the mission's set-up

@@ -16,7 +16,9 @@ from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
 from tactile_bt.tree.parameters import bind_blackboard
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
-from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection
+from tactile_bt.tree.behaviours.surface_end import (ContactJumped, ContactShrank, ContactStalled, PadTurned,
+                                                    RollingOverEdge, TiltLimit, Travelled)
 from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
@@ -34,7 +36,13 @@ LEAVES = {
     "guided_slide": GuidedSlide,
     "record_contacts": RecordContacts,
     "scan_direction": ScanDirection,
-    "stripe_end": StripeEnd,
+    "tilt_limit": TiltLimit,
+    "pad_turned": PadTurned,
+    "contact_jumped": ContactJumped,
+    "rolling_over_edge": RollingOverEdge,
+    "contact_shrank": ContactShrank,
+    "travelled": Travelled,
+    "contact_stalled": ContactStalled,
     "coverage_stalled": CoverageStalled,
     "cable_end": CableEnd,
     "frontier_guidance": FrontierGuidance,
@@ -71,7 +79,13 @@ __all__ = [
     "GuidedSlide",
     "RecordContacts",
     "ScanDirection",
-    "StripeEnd",
+    "TiltLimit",
+    "PadTurned",
+    "ContactJumped",
+    "RollingOverEdge",
+    "ContactShrank",
+    "Travelled",
+    "ContactStalled",
     "CoverageStalled",
     "CableEnd",
     "FrontierGuidance",

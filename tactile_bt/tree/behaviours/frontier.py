@@ -11,9 +11,12 @@ nearest reachable frontier cell, writing the guidance twist to ``key`` every cyc
 direction projected onto the pad's tangent plane, sensor frame, as ``scan_direction``) for
 ``guided_slide: {twist_key: ...}``, while the servo leaves keep the pad on the surface.
 
-An attempt ends at the end of the surface, with the signs of ``stripe_end`` (the contact point
-stalls or jumps, the contact shrinks at an edge, the pad tilts past ``max_tilt_rad``) and one of
-the set-up: the pad's lowest corner coming within ``table_clearance_m`` of the table
+An attempt ends at the end of the surface: one of the condition leaves of
+:mod:`tactile_bt.tree.behaviours.surface_end` the tree runs beside the planner (with ``end_key``:
+the contact stalls or jumps, shrinks at an edge, the pad rolls over an edge or tilts past its
+limit) writes the end to ``end_key``, and the leaves start over with each attempt, whose number
+the planner writes to ``attempt_key``. The planner itself ends an attempt on a sign of the
+set-up: the pad's lowest corner coming within ``table_clearance_m`` of the table
 (``/setup/table_z_m``, see :mod:`tactile_bt.tree.behaviours.table`) while moving towards it. The
 frontier cells under the pad whose open side faces the way the pad was going are then *blocked*
 for that direction, and the next target is chosen away from it. A recovering ``table_clearance``
@@ -42,7 +45,8 @@ from py_trees.common import Access, Status
 
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, FrontierMap, describe_left
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
+from tactile_bt.tree.behaviours.scan import tangent_guidance
+from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
@@ -50,9 +54,6 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalis
 
 __all__ = ["FrontierGuidance", "FRONTIER_LEFT_KEY"]
 
-#: Parameters passed on to the end-of-surface test (a ``stripe_end``).
-_END_PARAMETERS = ("window_s", "min_travel_m", "min_area_ratio", "max_jump_m", "max_tilt_rad", "edge_turn_rad",
-                   "edge_radius_m")
 #: Ends of an attempt at an edge under the pad (its imprint reached the edge across its width).
 _EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
 #: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
@@ -107,23 +108,12 @@ class FrontierGuidance(TactileBehaviour):
                           doc="Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a "
                               "recovering ``table_clearance`` guard finds it too close to the table; None or absent "
                               "otherwise).")
-    window_s = Parameter(1.0, bound=NON_NEGATIVE,
-                         doc="An attempt ends when the contact point moves less than ``min_travel_m`` in this time "
-                             "(s; 0 = no stall test).")
-    min_travel_m = Parameter(0.004, bound=NON_NEGATIVE, doc="See ``window_s`` (m).")
-    min_area_ratio = Parameter(0.5, bound=between(0, 1, high_open=True), unit=None,
-                               doc="An attempt ends when the contact shrinks below this fraction of its largest area "
-                                   "in the attempt (the pad has run half over an edge; 0 = off).")
-    max_jump_m = Parameter(0.01, bound=NON_NEGATIVE,
-                           doc="An attempt ends when the contact point jumps more than this from one cycle to the "
-                               "next (m; 0 = off): onto another object, such as the table. With the table's height "
-                               "known, only a jump down to the table counts (a soft, lumpy object's contact may jump "
-                               "between its parts).")
-    edge_turn_rad = Parameter(math.radians(10.0), bound=between(0, math.pi),
-                              doc="An attempt ends when the pad turns more than this within ``window_s``, away from "
-                                  "the vertical, at a radius of curvature below ``edge_radius_m``: it is rolling over "
-                                  "an edge (rad; 0 = off).")
-    edge_radius_m = Parameter(0.01, bound=NON_NEGATIVE, doc="See ``edge_turn_rad`` (m).")
+    end_key = Parameter(ATTEMPT_END_KEY, fixed=True,
+                        doc="Blackboard key where the end-of-surface leaves (:mod:`~tactile_bt.tree.behaviours."
+                            "surface_end`, with ``end_key``) write the end of an attempt.")
+    attempt_key = Parameter(ATTEMPT_KEY, fixed=True,
+                            doc="Blackboard key the attempt number is written to, so that those leaves start over "
+                                "with each attempt.")
     block_radius_m = Parameter(0.0, bound=NON_NEGATIVE,
                                doc="Radius around the pad centre within which frontier cells facing the way the pad "
                                    "went are blocked when the attempt ends at an edge (the contact shrinks or the pad "
@@ -152,10 +142,14 @@ class FrontierGuidance(TactileBehaviour):
         self._writer = self.attach_blackboard_client(name=f"{self.name}/guidance")
         self._writer.register_key(key=self.key, access=Access.WRITE)
         self._writer.register_key(key=FRONTIER_LEFT_KEY, access=Access.WRITE)
+        self.end_key = normalise_key(self.end_key)
+        self.attempt_key = normalise_key(self.attempt_key)
+        self._writer.register_key(key=self.attempt_key, access=Access.WRITE)
         self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self.alarm_key = normalise_key(self.alarm_key)
         self._setup.register_key(key=self.alarm_key, access=Access.READ)
+        self._setup.register_key(key=self.end_key, access=Access.READ)
         #: The map of the touched surface (None before the first contact sample).
         self.map: FrontierMap | None = None
         self._map_cloud = None  # the cloud the map was filled from
@@ -179,13 +173,6 @@ class FrontierGuidance(TactileBehaviour):
         self._alarmed = False  # backing off from the guard's current alarm
         self._state = "waiting for contact"
         self._reset_motion()
-
-    def parameters_changed(self, changed: frozenset[str]) -> None:
-        """Pass the parameters of the end-of-surface test on to it (built on first use)."""
-        if "_end" not in self.__dict__:
-            self._end = StripeEnd(name=f"{self.name}/end")  # the end-of-surface test of an attempt
-        for name in changed & set(_END_PARAMETERS):
-            self._end.set_parameter(name, getattr(self, name))
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -332,7 +319,7 @@ class FrontierGuidance(TactileBehaviour):
         self._deadline = self.now + dist[k] / self.speed_mps + self.attempt_s
         self._clearance_start = clearance
         self.attempts += 1
-        self._end.initialise()
+        write(self.attempt_key, self.attempts)  # the end-of-surface leaves start over
         self._steer(point)
         return True
 
@@ -350,16 +337,11 @@ class FrontierGuidance(TactileBehaviour):
 
     def _attempt_end(self, point: np.ndarray) -> tuple[str, bool]:
         """Why the current attempt has come to an end ("" while it goes on), and whether at an
-        edge under the pad."""
-        if self._end.update() != Status.RUNNING:
-            if (self._end.cause == "jump" and math.isfinite(self.table_z_m)
-                    and point[2] > self.table_z_m + self.table_clearance_m):
-                # not onto the table (known): another part of the same contact, e.g. on a soft,
-                # lumpy object; go on
-                self._end.initialise()
-                return "", False
-            self._cause = self._end.cause
-            return self._end.feedback_message, self._end.cause in _EDGE_CAUSES
+        edge under the pad: an end-of-surface leaf's (on ``end_key``), the table or the time."""
+        end = read_or(self.end_key)
+        if end is not None and end.get("attempt") == self.attempts:
+            self._cause = end["cause"]
+            return end["message"], self._cause in _EDGE_CAUSES
         clearance, _ = self._clearance()
         if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:
             self._cause = "table"
