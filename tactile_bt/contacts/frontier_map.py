@@ -31,10 +31,11 @@ OPEN = ""
 #: The reason of a frontier cell without a sample of its own (a gap between samples).
 GAP = "gap"
 #: Reasons of the frontier left that explain it (see :meth:`FrontierMap.classify`): the object's
-#: foot at the table, a surface steeper than the pad may tilt. Every other reason (an edge, a
+#: foot at the table, a surface steeper than the pad may tilt, a place the arm cannot reach (a
+#: re-approach found it so). Every other reason (an edge, a
 #: stall, a jump, a lost contact, a target not reached in time, or no attempt at all) leaves that
 #: frontier unexplained: the surface beyond may go on.
-EXPLAINING = frozenset({"table", "tilt"})
+EXPLAINING = frozenset({"table", "tilt", "reach"})
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
@@ -56,6 +57,10 @@ def describe_left(left: dict) -> str:
         if total > 0:
             detail = ", ".join(f"{v * 1e3:.0f} {k or 'open'}" for k, v in sorted(lengths.items(), key=lambda kv: -kv[1]))
             parts.append(f"{total * 1e3:.0f} mm {kind} ({detail})")
+    below = left.get("untouched_near_table_m2") or 0.0
+    if below > 0:
+        parts.append(f"about {below * 1e4:.1f} cm² untouched below the frontier at the table "
+                     f"(estimated coverage {left.get('estimated_coverage', math.nan):.2f})")
     return "; ".join(parts) or "none"
 
 
@@ -238,3 +243,45 @@ class FrontierMap:
         _, _, _, reason = self.classify(max_tilt_rad, table_z_m, table_clearance_m)
         names, counts = np.unique(reason.astype(str), return_counts=True)
         return {str(n): float(k) * self.cell_m for n, k in zip(names, counts)}
+
+    def normal_at(self, row: int, col: int) -> np.ndarray:
+        """Mean outward normal (unit, world) of the samples in cell ``(row, col)`` (+z where it
+        has none)."""
+        n = self.normal_sum[row, col]
+        norm = float(np.linalg.norm(n))
+        return n / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
+
+    def unblock(self, centre_xy, radius_m: float) -> None:
+        """Clear the blocks of the cells within ``radius_m`` (m) of ``centre_xy`` (world xy), in
+        every direction: the surface there has been reached another way."""
+        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
+        r = int(math.ceil(radius_m / self.cell_m))
+        lo, hi = np.maximum(c - r, 0), np.minimum(c + r + 1, self.n)
+        if np.any(hi <= lo):
+            return
+        rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
+        inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
+        self.blocked[rr[inside], cc[inside]] = False
+        self.cause[rr[inside], cc[inside]] = -1
+
+    def close(self, centre_xy, radius_m: float, cause: str) -> None:
+        """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy) in every direction,
+        for ``cause``."""
+        for k in range(SECTORS):
+            angle = 2 * math.pi * k / SECTORS
+            self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
+
+    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float,
+                        min_tilt_rad: float = math.radians(20.0)) -> float:
+        """Estimated area (m², in the table plane) of the surface between the frontier cells
+        ``(rows, cols)`` and the table at ``table_z_m``: each cell's edge times the run down to
+        the table at the cell's tilt (at least ``min_tilt_rad``), ``(z - table) / tan(tilt)``."""
+        if not len(rows) or not math.isfinite(table_z_m):
+            return 0.0
+        drop = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0)
+        tilt = np.maximum(np.nan_to_num(self.tilt(rows, cols), nan=min_tilt_rad), min_tilt_rad)
+        return float(np.sum(self.cell_m * drop / np.tan(tilt)))
+
+    def touched_area(self) -> float:
+        """Area (m², in the table plane) of the touched cells."""
+        return float(np.count_nonzero(self.touched)) * self.cell_m**2

@@ -21,6 +21,7 @@ from tactile_bt.tree.behaviours.surface_end import (ContactJumped, ContactShrank
                                                     RollingOverEdge, TiltLimit, Travelled)
 from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
+from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 from tactile_bt.tree.behaviours.supervision import SupervisorRetreat
@@ -46,6 +47,7 @@ LEAVES = {
     "coverage_stalled": CoverageStalled,
     "cable_end": CableEnd,
     "frontier_guidance": FrontierGuidance,
+    "reapproach": Reapproach,
     "table_clearance": TableClearance,
     "table_offset": TableOffset,
     "centre_to": CentreTo,
@@ -89,6 +91,7 @@ __all__ = [
     "CoverageStalled",
     "CableEnd",
     "FrontierGuidance",
+    "Reapproach",
     "TableClearance",
     "TableOffset",
     "CentreTo",

@@ -44,6 +44,7 @@ import numpy as np
 from py_trees.common import Access, Status
 
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, FrontierMap, describe_left
+from tactile_bt.contacts.reapproach_plan import ReapproachPlan
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.scan import tangent_guidance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
@@ -133,7 +134,21 @@ class FrontierGuidance(TactileBehaviour):
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE,
                                   doc="When no reachable frontier is left, the leaf succeeds only if at most this much "
                                       "of the frontier left (m, in cell edges) has no explaining reason (the table, "
-                                      "the tilt limit), and fails otherwise, naming what is left.")
+                                      "the tilt limit, the arm's reach), and fails otherwise, naming what is left.")
+    min_coverage = Parameter(0.95, bound=between(0, 1), unit=None,
+                             doc="The leaf succeeds only when the touched area is at least this fraction of the "
+                                 "touched area and the estimated area left between the table and the frontier the "
+                                 "table kept the pad from (its run down to the table at the touched tilt).")
+    reapproach_key = Parameter("", fixed=True,
+                               doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
+                                   "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
+                                   "of the nearest unexplained frontier not tried before there and FAILS, for a "
+                                   "``retry`` to run ``reapproach`` and start exploring again; it applies the result "
+                                   "when it starts again.")
+    max_reapproaches = Parameter(20, bound=NON_NEGATIVE, unit=None, doc="Most re-approaches of one scan.")
+    probe_beyond_m = Parameter(0.02, bound=POSITIVE,
+                               doc="A re-approach probes this far beyond the frontier (m); it does not try again "
+                                   "within this distance of a frontier tried before.")
 
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         super().__init__(name, *args, **parameters)
@@ -150,6 +165,9 @@ class FrontierGuidance(TactileBehaviour):
         self.alarm_key = normalise_key(self.alarm_key)
         self._setup.register_key(key=self.alarm_key, access=Access.READ)
         self._setup.register_key(key=self.end_key, access=Access.READ)
+        if self.reapproach_key:
+            self.reapproach_key = normalise_key(self.reapproach_key)
+            self._writer.register_key(key=self.reapproach_key, access=Access.WRITE)
         #: The map of the touched surface (None before the first contact sample).
         self.map: FrontierMap | None = None
         self._map_cloud = None  # the cloud the map was filled from
@@ -170,6 +188,10 @@ class FrontierGuidance(TactileBehaviour):
         self.ends: Counter = Counter()
         #: Length (m) of the frontier by reason at the last choice (see :meth:`frontier_left`).
         self.left: dict[str, float] = {}
+        self.coverage = 0.0
+        self.below_m2 = 0.0
+        #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
+        self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         self._alarmed = False  # backing off from the guard's current alarm
         self._state = "waiting for contact"
         self._reset_motion()
@@ -192,6 +214,7 @@ class FrontierGuidance(TactileBehaviour):
         cloud = self._cloud
         if cloud is not self._map_cloud:  # another mission's cloud: start again
             self.map, self._map_cloud, self._seen = None, cloud, 0
+            self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         n = len(cloud)
         if n > self._seen:
             if self.map is None:
@@ -209,19 +232,51 @@ class FrontierGuidance(TactileBehaviour):
         rows, cols, out, reason = self._classify()
         names, counts = np.unique(reason[reason != GAP].astype(str), return_counts=True)
         self.left = {str(k): float(c) * self.cell_m for k, c in zip(names, counts)}
+        # the table kept the pad from the surface below these: how much is left there
+        band = (reason == "table") & (self.map.z_max[rows, cols] > self.table_z_m + self.table_clearance_m)
+        below = self.map.untouched_below(rows[band], cols[band], self.table_z_m)
+        touched = self.map.touched_area()
+        self.coverage = touched / (touched + below) if touched > 0 else 0.0
+        self.below_m2 = below
         write(FRONTIER_LEFT_KEY, self.frontier_left())
         ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
 
     def frontier_left(self) -> dict:
         """The frontier left at the last choice, ``{"explained": {reason: m}, "unexplained":
-        {reason: m}}`` (lengths in cell edges; the reason "" is frontier still open)."""
+        {reason: m}}`` (lengths in cell edges; the reason "" is frontier still open), the
+        estimated untouched area between the table and the frontier the table kept the pad from
+        (``untouched_near_table_m2``, m² in the table plane) and the estimated coverage (the
+        touched area over it and that, ``estimated_coverage``)."""
         return {"explained": {k: v for k, v in self.left.items() if k in EXPLAINING},
-                "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING}}
+                "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING},
+                "untouched_near_table_m2": self.below_m2, "estimated_coverage": self.coverage}
 
     def unexplained_m(self) -> float:
         """Length (m) of the frontier left without an explaining reason."""
         return sum(v for k, v in self.left.items() if k not in EXPLAINING)
+
+    def _reapproach(self, point: np.ndarray) -> dict | None:
+        """Write a re-approach of the nearest unexplained frontier not tried before to
+        ``reapproach_key`` and return it; None when there is none to try."""
+        if not self.reapproach_key or len(self.plan.tried) >= self.max_reapproaches:
+            return None
+        rows, cols, out, reason = self._classify()
+        job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad)
+        if job is None:
+            return None
+        job["home"] = (point.copy(), -self.pose[:3, 2].copy())  # where the pad touches now
+        write(self.reapproach_key, job)
+        return job
+
+    def _reapproached(self) -> None:
+        """Apply the result of a carried-out re-approach to the map, once."""
+        job = read_or(self.reapproach_key) if self.reapproach_key else None
+        if self.map is None or not isinstance(job, dict) or "result" not in job or job.get("applied"):
+            return
+        job["applied"] = True
+        result = self.plan.apply(self.map, job)
+        self.ends[f"re-approach: {result}"] += 1
 
     # -- the pad -----------------------------------------------------------------------------
     def _contact_point(self) -> np.ndarray | None:
@@ -452,6 +507,7 @@ class FrontierGuidance(TactileBehaviour):
         if now >= self._next_plan:
             self._next_plan = now + self.replan_s
             self._update_map(point)
+            self._reapproached()
             if self.map is None:  # nothing recorded yet
                 self._guide(None)
                 self._state = "waiting for the first contacts"
@@ -466,7 +522,18 @@ class FrontierGuidance(TactileBehaviour):
                     explained = f": {self.explained()}" if self.ends else ""
                     counts = f"{self.attempts} targets, {self.blocks} ends of the surface{explained}"
                     left = describe_left(self.frontier_left())
+                    if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
+                        self.feedback_message = (f"no reachable frontier left, but about {100 * (1 - self.coverage):.0f} % "
+                                                 f"of the surface untouched near the table ({self.below_m2 * 1e4:.1f} cm² "
+                                                 f"below the frontier the table kept the pad from; {left}) ({counts})")
+                        return Status.FAILURE
                     if self.unexplained_m() > self.max_unexplained_m:
+                        job = self._reapproach(point)
+                        if job is not None:
+                            x, y = job["frontier_xy"] * 1e3
+                            self.feedback_message = (f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm: {left} "
+                                                     f"({counts})")
+                            return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
                         return Status.FAILURE
                     self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"

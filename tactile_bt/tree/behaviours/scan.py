@@ -26,7 +26,7 @@ from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.surface_end import unit_vector
 from tactile_bt.tree.blackboard import POSE, read, read_or, write
 from tactile_bt.tree.declaration import Parameter
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["ScanDirection", "CoverageStalled", "tangent_guidance"]
 
@@ -99,6 +99,9 @@ class CoverageStalled(TactileBehaviour):
                                  "With it, a stalled coverage that leaves more than ``max_unexplained_m`` of the "
                                  "frontier unexplained is a FAILURE that names it, not a SUCCESS. Empty: no such test.")
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE, doc="See ``frontier_key`` (m).")
+    min_coverage = Parameter(0.95, bound=between(0, 1), unit=None,
+                             doc="With ``frontier_key``, a stalled coverage whose planner estimates a lower "
+                                 "coverage (``estimated_coverage``) is a FAILURE too.")
     #: Its SUCCESS ends a scan: the mission reports its message as the reason.
     reports_success = True
     _start = 0.0
@@ -133,7 +136,8 @@ class CoverageStalled(TactileBehaviour):
                 left = read_or(self.frontier_key) if self.frontier_key else None
                 if left is not None:
                     from_frontier = describe_left(left)
-                    if sum(left.get("unexplained", {}).values()) > self.max_unexplained_m:
+                    if (sum(left.get("unexplained", {}).values()) > self.max_unexplained_m
+                            or left.get("estimated_coverage", 1.0) < self.min_coverage):
                         self.feedback_message = f"{stalled}, with {from_frontier}"
                         return Status.FAILURE
                     stalled = f"{stalled}; frontier left: {from_frontier}"
