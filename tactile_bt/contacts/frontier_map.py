@@ -83,6 +83,8 @@ class FrontierMap:
         self.z_max = np.full((self.n, self.n), -np.inf)
         self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
         self.cause = np.full((self.n, self.n, SECTORS), -1, dtype=np.int16)
+        #: Tilt (rad) of the pad from the vertical when an attempt ended in the cell at the table.
+        self.table_tilt = np.full((self.n, self.n), np.nan)
         #: The causes of blocks, in the order they first came.
         self.causes: list[str] = []
         self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
@@ -187,10 +189,13 @@ class FrontierMap:
             self.blocked[rows, cols, (s + k) % SECTORS] = True
             self.cause[rows, cols, (s + k) % SECTORS] = c
 
-    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None, cause: str = "") -> int:
+    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None, cause: str = "",
+              pad_tilt_rad: float = math.nan) -> int:
         """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy; and the cells
         ``rows, cols``) for crossings in ``direction_xy`` and its two neighbouring sectors, for
-        ``cause``; returns how many cells were newly blocked in the direction's own sector."""
+        ``cause`` (with the pad's tilt then, ``pad_tilt_rad``, kept for "table" in
+        :attr:`table_tilt`); returns how many cells were newly blocked in the direction's own
+        sector."""
         d = np.asarray(direction_xy, dtype=float)[:2]
         s = int(sector(d))
         c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
@@ -208,6 +213,8 @@ class FrontierMap:
             cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
         before = int(self.blocked[rr, cc, s].sum())
         c = self._cause_index(cause)
+        if cause == "table" and math.isfinite(pad_tilt_rad):
+            self.table_tilt[rr, cc] = np.fmax(self.table_tilt[rr, cc], pad_tilt_rad)
         for k in (s - 1, s, s + 1):
             self.blocked[rr, cc, k % SECTORS] = True
             self.cause[rr, cc, k % SECTORS] = c
@@ -271,16 +278,18 @@ class FrontierMap:
             angle = 2 * math.pi * k / SECTORS
             self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
 
-    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float,
-                        min_tilt_rad: float = math.radians(20.0)) -> float:
-        """Estimated area (m², in the table plane) of the surface between the frontier cells
-        ``(rows, cols)`` and the table at ``table_z_m``: each cell's edge times the run down to
-        the table at the cell's tilt (at least ``min_tilt_rad``), ``(z - table) / tan(tilt)``."""
+    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float, steep_rad: float) -> float:
+        """Estimated area (m², in the table plane) of the surface left between the frontier
+        cells ``(rows, cols)`` and the table at ``table_z_m`` where an attempt ended at the
+        table (:attr:`table_tilt`) with the pad tilted less than ``steep_rad``: each cell's edge
+        times the run down to the table at the pad's tilt then, ``(z - table) / tan(tilt)``. A
+        pad stopped steeper was on the object's side; the surface below is left out."""
         if not len(rows) or not math.isfinite(table_z_m):
             return 0.0
-        drop = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0)
-        tilt = np.maximum(np.nan_to_num(self.tilt(rows, cols), nan=min_tilt_rad), min_tilt_rad)
-        return float(np.sum(self.cell_m * drop / np.tan(tilt)))
+        tilt = self.table_tilt[rows, cols]
+        shallow = tilt < steep_rad  # NaN (no such end) is not
+        drop = np.maximum(self.z_max[rows, cols][shallow] - table_z_m, 0.0)
+        return float(np.sum(self.cell_m * drop / np.tan(np.maximum(tilt[shallow], math.radians(5.0)))))
 
     def touched_area(self) -> float:
         """Area (m², in the table plane) of the touched cells."""

@@ -137,8 +137,9 @@ class FrontierGuidance(TactileBehaviour):
                                       "the tilt limit, the arm's reach), and fails otherwise, naming what is left.")
     min_coverage = Parameter(0.95, bound=between(0, 1), unit=None,
                              doc="The leaf succeeds only when the touched area is at least this fraction of the "
-                                 "touched area and the estimated area left between the table and the frontier the "
-                                 "table kept the pad from (its run down to the table at the touched tilt).")
+                                 "touched area and the estimated area left between the table and the frontier where "
+                                 "the table stopped the pad while it was tilted less than ``max_tilt_rad - "
+                                 "tilt_margin_rad`` (the run down to the table at the pad's tilt then).")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
@@ -234,7 +235,7 @@ class FrontierGuidance(TactileBehaviour):
         self.left = {str(k): float(c) * self.cell_m for k, c in zip(names, counts)}
         # the table kept the pad from the surface below these: how much is left there
         band = (reason == "table") & (self.map.z_max[rows, cols] > self.table_z_m + self.table_clearance_m)
-        below = self.map.untouched_below(rows[band], cols[band], self.table_z_m)
+        below = self.map.untouched_below(rows[band], cols[band], self.table_z_m, self.max_tilt_rad - self.tilt_margin_rad)
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below) if touched > 0 else 0.0
         self.below_m2 = below
@@ -416,8 +417,9 @@ class FrontierGuidance(TactileBehaviour):
             radius, centre = self.local_block_radius_m, point
         d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
         cause = cause or why
-        self.map.block(centre[:2], radius, d, cause=cause)
-        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
+        tilt = math.acos(max(-1.0, min(1.0, self._tilt_cos())))
+        self.map.block(centre[:2], radius, d, cause=cause, pad_tilt_rad=tilt)
+        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause, pad_tilt_rad=tilt)
         if self.target is not None:
             # the target and the frontier on the way to it, out of reach along this way
             rows, cols, out = self.map.frontier()
