@@ -266,7 +266,7 @@ class FrontierGuidance(TactileBehaviour):
         job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad)
         if job is None:
             return None
-        job["home"] = (point.copy(), -self.pose[:3, 2].copy())  # where the pad touches now
+        job["home"] = (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())  # the pad as it lies now
         write(self.reapproach_key, job)
         return job
 

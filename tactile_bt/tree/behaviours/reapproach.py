@@ -206,6 +206,8 @@ class Reapproach(TactileBehaviour):
                 point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
                 on_table = math.isfinite(self._table_z) and point[2] < self._table_z + self.table_clearance_m
                 self._finish("table" if on_table else "surface")
+            elif self._corner_at_table():
+                self._finish("table")
             elif self._approached > self.standoff_m + self.approach_m:
                 self._finish("nothing")
             else:
@@ -216,6 +218,12 @@ class Reapproach(TactileBehaviour):
             return Status.SUCCESS
         self._feedback = None
         return Status.RUNNING
+
+    def _corner_at_table(self) -> bool:
+        """Whether the pad's lowest corner has come within ``table_clearance_m`` of the table."""
+        if not math.isfinite(self._table_z):
+            return False
+        return lowest_corner(self.pose, self.pad, self.corner_margin_m)[2] < self._table_z + self.table_clearance_m
 
     def _move(self, position: np.ndarray, R: np.ndarray) -> bool:
         """Command the twist towards the pose ``(position, R)`` (world); True once there."""
