@@ -278,18 +278,22 @@ class FrontierMap:
             angle = 2 * math.pi * k / SECTORS
             self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
 
-    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float, steep_rad: float) -> float:
+    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float, steep_rad: float,
+                        reach_m: float = math.inf) -> float:
         """Estimated area (m², in the table plane) of the surface left between the frontier
         cells ``(rows, cols)`` and the table at ``table_z_m`` where an attempt ended at the
         table (:attr:`table_tilt`) with the pad tilted less than ``steep_rad``: each cell's edge
-        times the run down to the table at the pad's tilt then, ``(z - table) / tan(tilt)``. A
-        pad stopped steeper was on the object's side; the surface below is left out."""
+        times the run down to the table at the pad's tilt then, ``(z - table) / tan(tilt)``, at
+        most ``reach_m · cos(tilt)`` (the pad's lowest corner, at most ``reach_m`` from the
+        contact, was at the table). A pad stopped steeper was on the object's side; the surface
+        below is left out."""
         if not len(rows) or not math.isfinite(table_z_m):
             return 0.0
         tilt = self.table_tilt[rows, cols]
         shallow = tilt < steep_rad  # NaN (no such end) is not
         drop = np.maximum(self.z_max[rows, cols][shallow] - table_z_m, 0.0)
-        return float(np.sum(self.cell_m * drop / np.tan(np.maximum(tilt[shallow], math.radians(5.0)))))
+        tilt = np.maximum(tilt[shallow], math.radians(5.0))
+        return float(np.sum(self.cell_m * np.minimum(drop / np.tan(tilt), reach_m * np.cos(tilt))))
 
     def touched_area(self) -> float:
         """Area (m², in the table plane) of the touched cells."""

@@ -235,7 +235,9 @@ class FrontierGuidance(TactileBehaviour):
         self.left = {str(k): float(c) * self.cell_m for k, c in zip(names, counts)}
         # the table kept the pad from the surface below these: how much is left there
         band = (reason == "table") & (self.map.z_max[rows, cols] > self.table_z_m + self.table_clearance_m)
-        below = self.map.untouched_below(rows[band], cols[band], self.table_z_m, self.max_tilt_rad - self.tilt_margin_rad)
+        reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
+        below = self.map.untouched_below(rows[band], cols[band], self.table_z_m,
+                                         self.max_tilt_rad - self.tilt_margin_rad, reach)
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below) if touched > 0 else 0.0
         self.below_m2 = below
