@@ -86,3 +86,23 @@ def test_without_a_table_or_blocks_the_whole_rim_is_open():
     left = m.remainder(math.radians(70))
     assert set(left) <= {OPEN, GAP}
     npt.assert_allclose(left[OPEN], 2 * math.pi * 0.02, rtol=0.35)  # the rim's length, in cells
+
+
+def test_the_area_left_near_the_table_counts_only_where_a_shallow_pad_was_stopped_by_it():
+    # a face rising at 30° from x = 0 (z = 10 mm) to x = 40 mm; the table at z = 0
+    rng = np.random.default_rng(3)
+    m = FrontierMap((0.02, 0.0), cell_m=0.002, extent_m=0.06)
+    x = rng.uniform(0.0, 0.04, 5000)
+    y = rng.uniform(-0.02, 0.02, 5000)
+    slope = math.radians(30)
+    m.add(np.column_stack((x, y, 0.01 + x * math.tan(slope))),
+          np.tile((-math.sin(slope), 0.0, math.cos(slope)), (5000, 1)))
+    m.block((0.0, 0.0), 0.03, (-1.0, 0.0), cause="table", pad_tilt_rad=slope)
+    rows, cols, out, reason = m.classify(math.radians(65), table_z_m=0.0)
+    low = (reason == "table") & (m.centre_of(rows, cols)[:, 0] < 0.003)
+    area = m.untouched_below(rows[low], cols[low], 0.0, math.radians(65))
+    # about 40 mm of edge, 10 mm / tan 30° = 17 mm down to the table
+    npt.assert_allclose(area, 0.04 * 0.01 / math.tan(slope), rtol=0.3)
+    assert m.untouched_below(rows[low], cols[low], 0.0, math.radians(25)) == 0.0  # a steeper pad: the side
+    npt.assert_allclose(m.untouched_below(rows[low], cols[low], 0.0, math.radians(65), reach_m=0.01),
+                        0.04 * 0.01 * math.cos(slope), rtol=0.3)

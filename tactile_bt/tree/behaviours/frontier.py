@@ -135,11 +135,13 @@ class FrontierGuidance(TactileBehaviour):
                                   doc="When no reachable frontier is left, the leaf succeeds only if at most this much "
                                       "of the frontier left (m, in cell edges) has no explaining reason (the table, "
                                       "the tilt limit, the arm's reach), and fails otherwise, naming what is left.")
-    min_coverage = Parameter(0.95, bound=between(0, 1), unit=None,
+    min_coverage = Parameter(0.0, bound=between(0, 1), unit=None,
                              doc="The leaf succeeds only when the touched area is at least this fraction of the "
                                  "touched area and the estimated area left between the table and the frontier where "
                                  "the table stopped the pad while it was tilted less than ``max_tilt_rad - "
-                                 "tilt_margin_rad`` (the run down to the table at the pad's tilt then).")
+                                 "tilt_margin_rad`` (the run down to the table at the pad's tilt then; 0 = no such test: the "
+                                 "estimate takes the surface below to go on at the pad's tilt, and a pad that rolled "
+                                 "over a box's edge to the table leaves a vertical side that is no area at all).")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "

@@ -99,9 +99,9 @@ class CoverageStalled(TactileBehaviour):
                                  "With it, a stalled coverage that leaves more than ``max_unexplained_m`` of the "
                                  "frontier unexplained is a FAILURE that names it, not a SUCCESS. Empty: no such test.")
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE, doc="See ``frontier_key`` (m).")
-    min_coverage = Parameter(0.95, bound=between(0, 1), unit=None,
+    min_coverage = Parameter(0.0, bound=between(0, 1), unit=None,
                              doc="With ``frontier_key``, a stalled coverage whose planner estimates a lower "
-                                 "coverage (``estimated_coverage``) is a FAILURE too.")
+                                 "coverage (``estimated_coverage``) is a FAILURE too (0 = no such test).")
     #: Its SUCCESS ends a scan: the mission reports its message as the reason.
     reports_success = True
     _start = 0.0
