@@ -485,6 +485,30 @@ def test_no_frontier_left_is_a_failure_while_edges_leave_it_unexplained():
     assert left["unexplained"]["edge"] > 2 * math.pi * 0.02 * 0.6 and not left["explained"]
 
 
+def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_applied():
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause="stall")
+    leaf.target = None
+    status = Status.RUNNING
+    for _ in range(10):
+        status = h.tick(make_features())
+        if status != Status.RUNNING:
+            break
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("re-approaching the frontier")
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    point, normal = job["probe"]
+    assert np.linalg.norm(point[:2]) > 0.03  # beyond the rim (20 mm)
+    # the re-approach found the table there: that part of the rim is explained
+    job["result"] = "table"
+    leaf.initialise()
+    for _ in range(10):
+        h.tick(make_features())
+    assert leaf.frontier_left()["explained"].get("table", 0.0) > 0.01
+    assert leaf.ends["re-approach: table"] == 1
+
+
 @pytest.mark.parametrize("unexplained, status", [({"edge": 0.05}, Status.FAILURE), ({}, Status.SUCCESS)])
 def test_a_stalled_coverage_with_unexplained_frontier_is_no_success(unexplained, status):
     leaf = CoverageStalled(window_s=1.0, min_samples=10, frontier_key="/scan/frontier_left")
