@@ -13,7 +13,8 @@ turning the pad to face it, and approaches along the normal until the pressure p
 - ``surface``: the pad touches the object there; SUCCESS, the exploration goes on from there;
 - ``table``: it touched the table (within ``table_clearance_m`` of ``/setup/table_z_m``), or the
   pad's lowest corner would come that close to it at the probe: the object ends before;
-- ``reach``: the arm did not get the pad to a waypoint within ``move_s``;
+- ``reach``: the arm did not get the pad to a waypoint within ``move_s``, or came no nearer to
+  it for 1 s (its joints at their limits);
 - ``nothing``: no contact within ``approach_m`` beyond the standoff.
 
 After anything but ``surface`` it approaches the home point the same way, and succeeds once in
@@ -48,6 +49,10 @@ _AT_RAD = math.radians(2.0)
 #: Proportional gains of the move to a waypoint (1/s).
 _K_LINEAR = 3.0
 _K_ANGULAR = 3.0
+#: A move that has come no nearer (by ``_AT_M``, turns counted ``_M_PER_RAD`` m per rad) for
+#: this long (s) is out of the arm's reach: its joints are at their limits.
+_STUCK_S = 1.0
+_M_PER_RAD = 0.03
 #: A probe point near the table stays this far (m) inside the sensing area.
 _INSIDE_M = 0.01
 
@@ -99,6 +104,7 @@ class Reapproach(TactileBehaviour):
         self._waypoints: list = []
         self._phase = ""
         self._going_home = False
+        self._progress = (math.inf, 0.0)  # the least error of the current move, and when
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -129,6 +135,7 @@ class Reapproach(TactileBehaviour):
                            (np.array([standoff[0], standoff[1], max(safe, standoff[2])]), R, "moving over"),
                            (standoff, R, "lowering to the standoff")]
         self._deadline = self.now + self.move_s
+        self._progress = (math.inf, self.now)
         self._approached = 0.0
         return True
 
@@ -195,7 +202,8 @@ class Reapproach(TactileBehaviour):
             elif self._move(position, R):
                 self._waypoints.pop(0)
                 self._deadline = self.now + self.move_s
-            elif self.now > self._deadline:
+                self._progress = (math.inf, self.now)
+            elif self.now > self._deadline or self.now - self._progress[1] > _STUCK_S:
                 self._finish("reach")
             self._phase = phase
         elif not self._done:
@@ -232,6 +240,9 @@ class Reapproach(TactileBehaviour):
         e_r = Rotation.from_matrix(R @ T[:3, :3].T).as_rotvec()
         if np.linalg.norm(e_p) < _AT_M and np.linalg.norm(e_r) < _AT_RAD:
             return True
+        error = float(np.linalg.norm(e_p)) + _M_PER_RAD * float(np.linalg.norm(e_r))
+        if error < self._progress[0] - _AT_M:  # nearer by a millimetre (or 2°): progress
+            self._progress = (error, self.now)
         v = _K_LINEAR * e_p
         w = _K_ANGULAR * e_r
         v *= min(1.0, self.speed_mps / max(float(np.linalg.norm(v)), 1e-12))
