@@ -49,7 +49,8 @@ def sector(direction_xy: np.ndarray) -> np.ndarray:
 
 def describe_left(left: dict) -> str:
     """One line for the frontier left, ``{"explained": {reason: m}, "unexplained": {reason: m}}``:
-    "35 mm unexplained (20 edge, 15 open); 120 mm explained (100 table, 20 tilt)"."""
+    "35 mm unexplained (20 edge, 15 open); 120 mm explained (100 table, 20 tilt)" (the rough
+    area estimates beside them stay in the report's ``frontier``)."""
     parts = []
     for kind in ("unexplained", "explained"):
         lengths = left.get(kind) or {}
@@ -57,10 +58,6 @@ def describe_left(left: dict) -> str:
         if total > 0:
             detail = ", ".join(f"{v * 1e3:.0f} {k or 'open'}" for k, v in sorted(lengths.items(), key=lambda kv: -kv[1]))
             parts.append(f"{total * 1e3:.0f} mm {kind} ({detail})")
-    below = left.get("untouched_near_table_m2") or 0.0
-    if below > 0:
-        parts.append(f"about {below * 1e4:.1f} cm² untouched below the frontier at the table "
-                     f"(estimated coverage {left.get('estimated_coverage', math.nan):.2f})")
     return "; ".join(parts) or "none"
 
 
