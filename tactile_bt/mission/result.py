@@ -73,6 +73,16 @@ class MissionResult:
         write_outputs(self, Path(out))
 
 
+def _frontier_left(tree) -> dict | None:
+    """The frontier left by the tree's frontier planner (a leaf with ``frontier_left``), if it
+    has planned at all."""
+    for node in tree.root.iterate():
+        left = getattr(node, "frontier_left", None)
+        if callable(left) and getattr(node, "left", None):
+            return left()
+    return None
+
+
 def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: float, sim_time_s: float, *,
                    scene=None, seed: int | None = None, recording: str | None = None,
                    warnings: list[str] | tuple = (), scan: dict | None = None, pad=None,
@@ -135,6 +145,7 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         rate_hz=getattr(scene, "rate_hz", None),
         recording=None if recording is None else str(recording),
         supervisor=supervision,
+        frontier=_frontier_left(tree),
     )
     cable = getattr(scene, "cable", None)
     if cable is not None:
