@@ -36,6 +36,11 @@ GAP = "gap"
 #: stall, a jump, a lost contact, a target not reached in time, or no attempt at all) leaves that
 #: frontier unexplained: the surface beyond may go on.
 EXPLAINING = frozenset({"table", "tilt", "reach"})
+#: :meth:`FrontierMap.face_going_on` compares a frontier cell's mean normal with that of the cell
+#: this far inwards (m), and takes the surface for a plane face when they differ by at most
+#: ``FACE_TURN_RAD``: a radius of curvature above about 115 mm, more than the pad's 80 mm.
+FACE_INWARD_M = 0.010
+FACE_TURN_RAD = math.radians(5.0)
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
@@ -80,8 +85,6 @@ class FrontierMap:
         self.z_max = np.full((self.n, self.n), -np.inf)
         self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
         self.cause = np.full((self.n, self.n, SECTORS), -1, dtype=np.int16)
-        #: Tilt (rad) of the pad from the vertical when an attempt ended in the cell at the table.
-        self.table_tilt = np.full((self.n, self.n), np.nan)
         #: The causes of blocks, in the order they first came.
         self.causes: list[str] = []
         self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
@@ -186,12 +189,10 @@ class FrontierMap:
             self.blocked[rows, cols, (s + k) % SECTORS] = True
             self.cause[rows, cols, (s + k) % SECTORS] = c
 
-    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None, cause: str = "",
-              pad_tilt_rad: float = math.nan) -> int:
+    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None, cause: str = "") -> int:
         """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy; and the cells
         ``rows, cols``) for crossings in ``direction_xy`` and its two neighbouring sectors, for
-        ``cause`` (with the pad's tilt then, ``pad_tilt_rad``, kept for "table" in
-        :attr:`table_tilt`); returns how many cells were newly blocked in the direction's own
+        ``cause``; returns how many cells were newly blocked in the direction's own
         sector."""
         d = np.asarray(direction_xy, dtype=float)[:2]
         s = int(sector(d))
@@ -210,8 +211,6 @@ class FrontierMap:
             cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
         before = int(self.blocked[rr, cc, s].sum())
         c = self._cause_index(cause)
-        if cause == "table" and math.isfinite(pad_tilt_rad):
-            self.table_tilt[rr, cc] = np.fmax(self.table_tilt[rr, cc], pad_tilt_rad)
         for k in (s - 1, s, s + 1):
             self.blocked[rr, cc, k % SECTORS] = True
             self.cause[rr, cc, k % SECTORS] = c
@@ -275,22 +274,57 @@ class FrontierMap:
             angle = 2 * math.pi * k / SECTORS
             self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
 
-    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float, steep_rad: float,
-                        reach_m: float = math.inf) -> float:
+    def mean_normal(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Mean outward normal (unit, world, ``(k, 3)``) of the samples in the cells ``(rows,
+        cols)``; NaN where untouched or outside the grid."""
+        rows, cols = np.asarray(rows, dtype=int), np.asarray(cols, dtype=int)
+        inside = (rows >= 0) & (rows < self.n) & (cols >= 0) & (cols < self.n)
+        out = np.full((len(rows), 3), np.nan)
+        s = self.normal_sum[rows[inside], cols[inside]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[inside] = s / np.linalg.norm(s, axis=-1, keepdims=True)
+        return out
+
+    def face_going_on(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, steep_rad: float,
+                      inward_m: float = FACE_INWARD_M, max_turn_rad: float = FACE_TURN_RAD) -> np.ndarray:
+        """Which frontier cells ``(rows, cols)`` (outward directions ``out``, ``(k, 2)``) lie on
+        a plane face tilted less than ``steep_rad``: the mean normal of the cell and that of the
+        cell ``inward_m`` inwards (against ``out``) differ by at most ``max_turn_rad``. There the
+        surface may be taken to go on beyond the frontier at the same slope. Where it turns
+        (a rounded side steepening towards the table, an edge the pad rolled over) what lies
+        beyond is steeper than what was touched and no such guess is made."""
+        if not len(rows):
+            return np.zeros(0, dtype=bool)
+        n = self.mean_normal(rows, cols)
+        inner = self.cell_of(self.centre_of(rows, cols) - np.asarray(out, dtype=float) * inward_m)
+        n_in = self.mean_normal(inner[:, 0], inner[:, 1])
+        with np.errstate(invalid="ignore"):
+            flat = np.sum(n * n_in, axis=1) >= math.cos(max_turn_rad)  # NaN (untouched) is not
+            return flat & (n[:, 2] > math.cos(steep_rad))
+
+    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, table_z_m: float,
+                        steep_rad: float, reach_m: float = math.inf) -> float:
         """Estimated area (m², in the table plane) of the surface left between the frontier
-        cells ``(rows, cols)`` and the table at ``table_z_m`` where an attempt ended at the
-        table (:attr:`table_tilt`) with the pad tilted less than ``steep_rad``: each cell's edge
-        times the run down to the table at the pad's tilt then, ``(z - table) / tan(tilt)``, at
-        most ``reach_m · cos(tilt)`` (the pad's lowest corner, at most ``reach_m`` from the
-        contact, was at the table). A pad stopped steeper was on the object's side; the surface
-        below is left out."""
+        cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
+        a plane face goes on beyond them (:meth:`face_going_on`): the untouched cells within the
+        run down to the table at the face's tilt, ``(z - table) / tan(tilt)`` (at most ``reach_m
+        · cos(tilt)``), outwards of each such cell, each counted once."""
         if not len(rows) or not math.isfinite(table_z_m):
             return 0.0
-        tilt = self.table_tilt[rows, cols]
-        shallow = tilt < steep_rad  # NaN (no such end) is not
-        drop = np.maximum(self.z_max[rows, cols][shallow] - table_z_m, 0.0)
-        tilt = np.maximum(tilt[shallow], math.radians(5.0))
-        return float(np.sum(self.cell_m * np.minimum(drop / np.tan(tilt), reach_m * np.cos(tilt))))
+        face = self.face_going_on(rows, cols, out, steep_rad)
+        if not np.any(face):
+            return 0.0
+        rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]
+        tilt = np.maximum(self.tilt(rows, cols), math.radians(5.0))
+        drop = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0)
+        run = np.minimum(drop / np.tan(tilt), reach_m * np.cos(tilt))
+        steps = np.arange(0.5, max(float(run.max()) / self.cell_m, 0.5) + 1e-9, 0.5) * self.cell_m
+        xy = self.centre_of(rows, cols)[:, None, :] + out[:, None, :] * steps[None, :, None]
+        rc = self.cell_of(xy[steps[None, :] <= run[:, None]])
+        rc = rc[np.all((rc >= 0) & (rc < self.n), axis=1)]
+        below = np.zeros((self.n, self.n), dtype=bool)
+        below[rc[:, 0], rc[:, 1]] = True
+        return float(np.count_nonzero(below & ~self.touched)) * self.cell_m**2
 
     def touched_area(self) -> float:
         """Area (m², in the table plane) of the touched cells."""

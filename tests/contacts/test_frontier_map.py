@@ -88,21 +88,43 @@ def test_without_a_table_or_blocks_the_whole_rim_is_open():
     npt.assert_allclose(left[OPEN], 2 * math.pi * 0.02, rtol=0.35)  # the rim's length, in cells
 
 
-def test_the_area_left_near_the_table_counts_only_where_a_shallow_pad_was_stopped_by_it():
-    # a face rising at 30° from x = 0 (z = 10 mm) to x = 40 mm; the table at z = 0
-    rng = np.random.default_rng(3)
-    m = FrontierMap((0.02, 0.0), cell_m=0.002, extent_m=0.06)
-    x = rng.uniform(0.0, 0.04, 5000)
-    y = rng.uniform(-0.02, 0.02, 5000)
+def _side(profile, n=8000, seed=3):
+    """Samples of a side rising in +x from x = 0, ``profile(x) -> (z, tilt)``, 40 mm wide in y."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0.0, 0.04, n)
+    y = rng.uniform(-0.02, 0.02, n)
+    z, tilt = profile(x)
+    return np.column_stack((x, y, z)), np.column_stack((-np.sin(tilt), np.zeros(n), np.cos(tilt)))
+
+
+def _left_near_table(points, normals):
+    m = FrontierMap((0.02, 0.0), cell_m=0.002, extent_m=0.08)
+    m.add(points, normals)
+    rows, cols, out = m.frontier()
+    low = m.centre_of(rows, cols)[:, 0] < 0.003  # the frontier along x = 0, the table below it
+    return m, rows[low], cols[low], out[low]
+
+
+def test_a_plane_face_going_on_to_the_table_leaves_the_run_down_to_it_untouched():
+    # a 30° face from x = 0 (z = 10 mm) up: it goes on down to the table at z = 0, 17 mm further out
     slope = math.radians(30)
-    m.add(np.column_stack((x, y, 0.01 + x * math.tan(slope))),
-          np.tile((-math.sin(slope), 0.0, math.cos(slope)), (5000, 1)))
-    m.block((0.0, 0.0), 0.03, (-1.0, 0.0), cause="table", pad_tilt_rad=slope)
-    rows, cols, out, reason = m.classify(math.radians(65), table_z_m=0.0)
-    low = (reason == "table") & (m.centre_of(rows, cols)[:, 0] < 0.003)
-    area = m.untouched_below(rows[low], cols[low], 0.0, math.radians(65))
-    # about 40 mm of edge, 10 mm / tan 30° = 17 mm down to the table
-    npt.assert_allclose(area, 0.04 * 0.01 / math.tan(slope), rtol=0.3)
-    assert m.untouched_below(rows[low], cols[low], 0.0, math.radians(25)) == 0.0  # a steeper pad: the side
-    npt.assert_allclose(m.untouched_below(rows[low], cols[low], 0.0, math.radians(65), reach_m=0.01),
-                        0.04 * 0.01 * math.cos(slope), rtol=0.3)
+    m, rows, cols, out = _left_near_table(*_side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope))))
+    assert np.all(m.face_going_on(rows, cols, out, math.radians(65)))
+    area = m.untouched_below(rows, cols, out, 0.0, math.radians(65))
+    npt.assert_allclose(area, 0.04 * 0.01 / math.tan(slope), rtol=0.25)
+    assert m.untouched_below(rows, cols, out, 0.0, math.radians(25)) == 0.0  # steeper than the pad may tilt
+    npt.assert_allclose(m.untouched_below(rows, cols, out, 0.0, math.radians(65), reach_m=0.01),
+                        0.04 * 0.01 * math.cos(slope), rtol=0.35)
+
+
+def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it():
+    # a circle of 46 mm radius about x = 40 mm, steepening from 0° there to 60° at the frontier
+    r = 0.04 / math.sin(math.radians(60))
+
+    def rounded(x):
+        tilt = np.arcsin((0.04 - x) / r)
+        return r * np.cos(tilt) - 0.01, tilt
+
+    m, rows, cols, out = _left_near_table(*_side(rounded))
+    assert not np.any(m.face_going_on(rows, cols, out, math.radians(65)))
+    assert m.untouched_below(rows, cols, out, 0.0, math.radians(65)) == 0.0

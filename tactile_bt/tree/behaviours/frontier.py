@@ -170,6 +170,8 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         self.left: dict[str, float] = {}
         self.coverage = 0.0
         self.below_m2 = 0.0
+        self.face_xy = np.zeros((0, 2))  # the frontier on plane faces near the table (world xy, m)
+        self.face_z = np.zeros(0)
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         self._alarmed = False  # backing off from the guard's current alarm
@@ -340,9 +342,8 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
             radius, centre = self.local_block_radius_m, point
         d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
         cause = cause or why
-        tilt = math.acos(max(-1.0, min(1.0, self._tilt_cos())))
-        self.map.block(centre[:2], radius, d, cause=cause, pad_tilt_rad=tilt)
-        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause, pad_tilt_rad=tilt)
+        self.map.block(centre[:2], radius, d, cause=cause)
+        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
         if self.target is not None:
             # the target and the frontier on the way to it, out of reach along this way
             rows, cols, out = self.map.frontier()
@@ -450,7 +451,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         self.feedback_message = (f"no reachable frontier left, but about {100 * (1 - self.coverage):.0f} % "
                                                  f"of the surface untouched near the table ({self.below_m2 * 1e4:.1f} cm² "
-                                                 f"below the frontier the table kept the pad from; {left}) ({counts})")
+                                                 f"below {self.face_left()}; {left}) ({counts})")
                         return Status.FAILURE
                     if self.unexplained_m() > self.max_unexplained_m:
                         job = self._reapproach(point)

@@ -7,7 +7,9 @@ object's foot at the table, a surface steeper than the tilt limit and a place th
 reach explain it (:data:`~tactile_bt.contacts.frontier_map.EXPLAINING`); a stall, a jump, a lost
 contact, a target not reached in time or an untried frontier do not. It writes the sums to
 ``/scan/frontier_left`` for ``coverage_stalled`` and the report, with an estimate of the area
-left between the table and the frontier where the table stopped a shallow pad. When no
+left between the table and the frontier the table explains, where that frontier lies on a
+plane face that goes on down to the table (the pad cannot lie on it lower without its border at
+the table): there the table explains why the pad stopped, but not the surface it left. When no
 reachable frontier is left but some is unexplained, it asks for a re-approach
 (:mod:`tactile_bt.tree.behaviours.reapproach`) on ``reapproach_key``, and applies the result
 when it goes on.
@@ -42,11 +44,12 @@ class FrontierLeft:
                                       "the tilt limit, the arm's reach), and fails otherwise, naming what is left.")
     min_coverage = Parameter(0.0, bound=between(0, 1), unit=None,
                              doc="The leaf succeeds only when the touched area is at least this fraction of the "
-                                 "touched area and the estimated area left between the table and the frontier where "
-                                 "the table stopped the pad while it was tilted less than ``max_tilt_rad - "
-                                 "tilt_margin_rad`` (the run down to the table at the pad's tilt then; 0 = no such test: the "
-                                 "estimate takes the surface below to go on at the pad's tilt, and a pad that rolled "
-                                 "over a box's edge to the table leaves a vertical side that is no area at all).")
+                                 "touched area and the estimated area left between the table and the frontier the "
+                                 "table explains where that frontier lies on a plane face (its normal turns by less "
+                                 "than 5° over the 10 mm inwards): the face taken to go on down to the table at its "
+                                 "slope (0 = no such test). A rounded side steepening towards the table, or an edge "
+                                 "the pad rolled over, adds nothing: what lies below is steeper than anything "
+                                 "touched.")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
@@ -70,10 +73,13 @@ class FrontierLeft:
         names, counts = np.unique(reason[reason != GAP].astype(str), return_counts=True)
         self.left = {str(k): float(c) * self.cell_m for k, c in zip(names, counts)}
         # the table kept the pad from the surface below these: how much is left there
-        band = (reason == "table") & (self.map.z_max[rows, cols] > self.table_z_m + self.table_clearance_m)
+        band = reason == "table"
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
-        below = self.map.untouched_below(rows[band], cols[band], self.table_z_m,
-                                         self.max_tilt_rad - self.tilt_margin_rad, reach)
+        steep = self.max_tilt_rad - self.tilt_margin_rad
+        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach)
+        face = self.map.face_going_on(rows[band], cols[band], out[band], steep)
+        self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
+        self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below) if touched > 0 else 0.0
         self.below_m2 = below
@@ -84,12 +90,24 @@ class FrontierLeft:
     def frontier_left(self) -> dict:
         """The frontier left at the last choice, ``{"explained": {reason: m}, "unexplained":
         {reason: m}}`` (lengths in cell edges; the reason "" is frontier still open), the
-        estimated untouched area between the table and the frontier the table kept the pad from
-        (``untouched_near_table_m2``, m² in the table plane) and the estimated coverage (the
-        touched area over it and that, ``estimated_coverage``)."""
+        estimated untouched area between the table and the frontier the table explains on plane
+        faces (``untouched_near_table_m2``, m² in the table plane; see ``min_coverage``), the
+        estimated coverage (the touched area over it and that, ``estimated_coverage``) and where
+        that frontier lies (``near_table``, :meth:`face_left`)."""
         return {"explained": {k: v for k, v in self.left.items() if k in EXPLAINING},
                 "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING},
-                "untouched_near_table_m2": self.below_m2, "estimated_coverage": self.coverage}
+                "untouched_near_table_m2": self.below_m2, "estimated_coverage": self.coverage,
+                "near_table": self.face_left()}
+
+    def face_left(self) -> str:
+        """Where the frontier on plane faces near the table lies (see ``min_coverage``): its
+        length, heights above the table and extent in world x, y (mm)."""
+        if not len(self.face_xy):
+            return "no frontier on a plane face near the table"
+        lo, hi = self.face_xy.min(axis=0) * 1e3, self.face_xy.max(axis=0) * 1e3
+        z = (self.face_z - self.table_z_m) * 1e3
+        return (f"{len(self.face_xy) * self.cell_m * 1e3:.0f} mm of frontier on plane faces {z.min():.0f}–{z.max():.0f} mm "
+                f"above the table, x {lo[0]:.0f}…{hi[0]:.0f}, y {lo[1]:.0f}…{hi[1]:.0f} mm")
 
     def unexplained_m(self) -> float:
         """Length (m) of the frontier left without an explaining reason."""
