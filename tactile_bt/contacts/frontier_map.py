@@ -286,38 +286,41 @@ class FrontierMap:
         return out
 
     def face_going_on(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, steep_rad: float,
-                      inward_m: float = FACE_INWARD_M, max_turn_rad: float = FACE_TURN_RAD) -> np.ndarray:
+                      table_z_m: float, reach_m: float = math.inf, inward_m: float = FACE_INWARD_M,
+                      max_turn_rad: float = FACE_TURN_RAD) -> np.ndarray:
         """Which frontier cells ``(rows, cols)`` (outward directions ``out``, ``(k, 2)``) lie on
-        a plane face tilted less than ``steep_rad``: the mean normal of the cell and that of the
-        cell ``inward_m`` inwards (against ``out``) differ by at most ``max_turn_rad``. There the
-        surface may be taken to go on beyond the frontier at the same slope. Where it turns
-        (a rounded side steepening towards the table, an edge the pad rolled over) what lies
-        beyond is steeper than what was touched and no such guess is made."""
-        if not len(rows):
-            return np.zeros(0, dtype=bool)
+        a plane face that goes on down to the table at ``table_z_m`` within the pad's reach: the
+        mean normal of the cell and that of the cell ``inward_m`` inwards (against ``out``)
+        differ by at most ``max_turn_rad``, the face is tilted less than ``steep_rad``, and a pad
+        lying on it with its contact at the cell has a corner at most ``reach_m`` away down at
+        the table (the cell at most ``reach_m · sin(tilt)`` above it). Only there can the table
+        have stopped a pad lying on the surface and left a part of it untouched. Where the
+        surface turns (a rounded side steepening towards the table, an edge the pad rolled over,
+        a level top far above the table) what lies beyond is steeper than what was touched."""
+        if not len(rows) or not math.isfinite(table_z_m):
+            return np.zeros(len(rows), dtype=bool)
         n = self.mean_normal(rows, cols)
         inner = self.cell_of(self.centre_of(rows, cols) - np.asarray(out, dtype=float) * inward_m)
         n_in = self.mean_normal(inner[:, 0], inner[:, 1])
         with np.errstate(invalid="ignore"):
             flat = np.sum(n * n_in, axis=1) >= math.cos(max_turn_rad)  # NaN (untouched) is not
-            return flat & (n[:, 2] > math.cos(steep_rad))
+            sin_tilt = np.sqrt(np.maximum(1.0 - n[:, 2] ** 2, 0.0))
+            reached = self.z_max[rows, cols] - table_z_m <= reach_m * sin_tilt
+            return flat & (n[:, 2] > math.cos(steep_rad)) & reached
 
     def untouched_below(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, table_z_m: float,
                         steep_rad: float, reach_m: float = math.inf) -> float:
         """Estimated area (m², in the table plane) of the surface left between the frontier
         cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
-        a plane face goes on beyond them (:meth:`face_going_on`): the untouched cells within the
-        run down to the table at the face's tilt, ``(z - table) / tan(tilt)`` (at most ``reach_m
-        · cos(tilt)``), outwards of each such cell, each counted once."""
-        if not len(rows) or not math.isfinite(table_z_m):
-            return 0.0
-        face = self.face_going_on(rows, cols, out, steep_rad)
+        a plane face goes on down to it (:meth:`face_going_on`): the untouched cells within the
+        run down to the table at the face's tilt, ``(z - table) / tan(tilt)``, outwards of each
+        such cell, each counted once."""
+        face = self.face_going_on(rows, cols, out, steep_rad, table_z_m, reach_m)
         if not np.any(face):
             return 0.0
         rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]
-        tilt = np.maximum(self.tilt(rows, cols), math.radians(5.0))
-        drop = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0)
-        run = np.minimum(drop / np.tan(tilt), reach_m * np.cos(tilt))
+        tilt = np.maximum(self.tilt(rows, cols), math.radians(1.0))
+        run = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0) / np.tan(tilt)
         steps = np.arange(0.5, max(float(run.max()) / self.cell_m, 0.5) + 1e-9, 0.5) * self.cell_m
         xy = self.centre_of(rows, cols)[:, None, :] + out[:, None, :] * steps[None, :, None]
         rc = self.cell_of(xy[steps[None, :] <= run[:, None]])

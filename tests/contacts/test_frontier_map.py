@@ -109,12 +109,20 @@ def test_a_plane_face_going_on_to_the_table_leaves_the_run_down_to_it_untouched(
     # a 30° face from x = 0 (z = 10 mm) up: it goes on down to the table at z = 0, 17 mm further out
     slope = math.radians(30)
     m, rows, cols, out = _left_near_table(*_side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope))))
-    assert np.all(m.face_going_on(rows, cols, out, math.radians(65)))
+    assert np.all(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
     area = m.untouched_below(rows, cols, out, 0.0, math.radians(65))
     npt.assert_allclose(area, 0.04 * 0.01 / math.tan(slope), rtol=0.25)
     assert m.untouched_below(rows, cols, out, 0.0, math.radians(25)) == 0.0  # steeper than the pad may tilt
-    npt.assert_allclose(m.untouched_below(rows, cols, out, 0.0, math.radians(65), reach_m=0.01),
-                        0.04 * 0.01 * math.cos(slope), rtol=0.35)
+    # a pad reaching 10 mm from the contact lying on that face has no corner at the table: the
+    # table did not stop it there
+    assert m.untouched_below(rows, cols, out, 0.0, math.radians(65), reach_m=0.01) == 0.0
+
+
+def test_a_level_top_far_above_the_table_leaves_nothing_counted_below_it():
+    # a box's top, 40 mm above the table: a pad lying on it never meets the table; where the table
+    # stopped it, the pad had rolled over an edge onto a side steeper than anything touched
+    m, rows, cols, out = _left_near_table(*_side(lambda x: (np.full_like(x, 0.04), np.zeros_like(x))))
+    assert m.untouched_below(rows, cols, out, 0.0, math.radians(65), reach_m=0.057) == 0.0
 
 
 def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it():
@@ -126,5 +134,5 @@ def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it()
         return r * np.cos(tilt) - 0.01, tilt
 
     m, rows, cols, out = _left_near_table(*_side(rounded))
-    assert not np.any(m.face_going_on(rows, cols, out, math.radians(65)))
+    assert not np.any(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
     assert m.untouched_below(rows, cols, out, 0.0, math.radians(65)) == 0.0

@@ -591,3 +591,50 @@ def test_an_attempt_that_ends_on_the_way_blocks_its_target_and_the_frontier_on_t
     rows, cols, out = leaf._candidates()
     xy = leaf.map.centre_of(rows, cols)
     assert not np.any(np.linalg.norm(xy - target, axis=1) < 1e-9)  # the target is out of reach
+
+
+def _all_frontier_at_the_table(patch, contact):
+    """A planner that requires 0.95 of the surface, every frontier of ``patch`` blocked by the
+    table; its status once it has chosen again."""
+    leaf, h = planner_harness(patch, contact[:2], height=contact[2], table=0.0, min_coverage=0.95)
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        leaf.map.block(contact[:2], 0.1, (math.cos(angle), math.sin(angle)), cause="table")
+    leaf.target = None
+    status = Status.RUNNING
+    for _ in range(10):
+        status = h.tick(make_features())
+        if status != Status.RUNNING:
+            break
+    return leaf, status
+
+
+def test_the_table_does_not_excuse_a_plane_face_left_above_it():
+    # a 40° face 60 mm wide whose lowest contacts are 5 mm above the table: the pad stopped
+    # there, but the face goes on 6 mm further down, about a tenth of what was touched
+    g = np.arange(0.0, 0.06, 0.001)
+    X, Y = np.meshgrid(g, g - 0.03)
+    slope = math.radians(40)
+    pts = np.column_stack((X.ravel(), Y.ravel(), 0.005 + X.ravel() * math.tan(slope)))
+    normals = np.tile((-math.sin(slope), 0.0, math.cos(slope)), (len(pts), 1))
+    leaf, status = _all_frontier_at_the_table((pts, normals), (0.03, 0.0, 0.03))
+    assert status == Status.FAILURE
+    assert "plane faces" in leaf.feedback_message and "untouched near the table" in leaf.feedback_message
+    assert leaf.frontier_left()["estimated_coverage"] < 0.95
+
+
+def test_a_side_rounding_off_to_the_table_is_explained_by_it():
+    # a spherical cap (30 mm radius) touched down to 60°, 4 mm above the table: what lies below
+    # steepens beyond anything touched
+    r = 0.03
+    g = np.arange(-r, r + 1e-9, 0.001)
+    X, Y = np.meshgrid(g, g)
+    rho = np.hypot(X, Y).ravel()
+    keep = rho <= r * math.sin(math.radians(60))
+    x, y = X.ravel()[keep], Y.ravel()[keep]
+    z = np.sqrt(r * r - x * x - y * y)
+    pts = np.column_stack((x, y, z - r * math.cos(math.radians(60)) + 0.004))
+    normals = np.column_stack((x, y, z)) / r
+    leaf, status = _all_frontier_at_the_table((pts, normals), (0.0, 0.0, pts[:, 2].max()))
+    assert status == Status.SUCCESS, leaf.feedback_message
+    assert leaf.frontier_left()["estimated_coverage"] == 1.0

@@ -452,7 +452,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                         self.feedback_message = (f"no reachable frontier left, but about {100 * (1 - self.coverage):.0f} % "
                                                  f"of the surface untouched near the table ({self.below_m2 * 1e4:.1f} cm² "
                                                  f"below {self.face_left()}; {left}) ({counts})")
-                        return Status.FAILURE
+                        return self._verdict()
                     if self.unexplained_m() > self.max_unexplained_m:
                         job = self._reapproach(point)
                         if job is not None:
@@ -461,7 +461,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                                                      f"({counts})")
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
-                        return Status.FAILURE
+                        return self._verdict()
                     self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"
                     return Status.SUCCESS
                 if self._retreat is not None and self._retreating(point):

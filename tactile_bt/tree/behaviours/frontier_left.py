@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from py_trees.common import Status
 
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN
 from tactile_bt.tree.blackboard import read_or, write
@@ -77,7 +78,7 @@ class FrontierLeft:
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach)
-        face = self.map.face_going_on(rows[band], cols[band], out[band], steep)
+        face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         touched = self.map.touched_area()
@@ -125,6 +126,14 @@ class FrontierLeft:
         job["home"] = (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())  # the pad as it lies now
         write(self.reapproach_key, job)
         return job
+
+    def _verdict(self) -> Status:
+        """FAILURE for good (:attr:`feedback_message` says why): written to ``reapproach_key`` as
+        ``{"verdict": message}``, on which ``reapproach`` fails at once rather than let a
+        ``retry`` touch again."""
+        if self.reapproach_key:
+            write(self.reapproach_key, {"verdict": self.feedback_message})
+        return Status.FAILURE
 
     def _reapproached(self) -> None:
         """Apply the result of a carried-out re-approach to the map, once."""

@@ -18,7 +18,10 @@ turning the pad to face it, and approaches along the normal until the pressure p
 - ``nothing``: no contact within ``approach_m`` beyond the standoff.
 
 After anything but ``surface`` it approaches the home point the same way, and succeeds once in
-contact there. Without a pending re-approach it succeeds at once. Out of contact nothing else
+contact there. Without a pending re-approach it succeeds at once. When the planner has found the
+scan unfinished with nothing left to re-approach, it writes ``{"verdict": message}`` instead: the
+leaf then fails at once with that message, so that a ``retry`` around it ends the scan without
+touching again. Out of contact nothing else
 moves the pad, so the leaf belongs before ``touch`` in a sequence, not beside the servo leaves.
 
 Layer: tree.
@@ -96,6 +99,7 @@ class Reapproach(TactileBehaviour):
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         super().__init__(name, *args, **parameters)
         self.key = normalise_key(self.key)
+        self._verdict: str | None = None  # the planner's final word, when it has one
         self.table_key = normalise_key(self.table_key)
         self._bb = self.attach_blackboard_client(name=f"{self.name}/reapproach")
         self._bb.register_key(key=self.key, access=Access.WRITE)
@@ -183,13 +187,17 @@ class Reapproach(TactileBehaviour):
     def initialise(self) -> None:
         self._table_z = table_height(self._bb, self.table_key)
         job = read_or(self.key)
-        self._job = job if isinstance(job, dict) and "result" not in job else None
+        self._verdict = job.get("verdict") if isinstance(job, dict) else None
+        self._job = job if isinstance(job, dict) and "probe" in job and "result" not in job else None
         self._done = False
         self._phase = ""
         if self._job is not None:
             self._start(self._job["probe"], home=False)
 
     def update(self) -> Status:
+        if self._verdict:  # the planner has found the scan unfinished for good: nothing to touch again
+            self.feedback_message = self._verdict
+            return Status.FAILURE
         if self._job is None:
             self.feedback_message = "nothing to re-approach"
             return Status.SUCCESS
