@@ -638,3 +638,10 @@ def test_a_side_rounding_off_to_the_table_is_explained_by_it():
     leaf, status = _all_frontier_at_the_table((pts, normals), (0.0, 0.0, pts[:, 2].max()))
     assert status == Status.SUCCESS, leaf.feedback_message
     assert leaf.frontier_left()["estimated_coverage"] == 1.0
+
+
+def test_a_verdict_of_an_earlier_scan_does_not_end_the_next_one():
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
+    h.set("/scan/reapproach", {"verdict": "no reachable frontier left, but 32 mm unexplained"})
+    FrontierGuidance(key="/scan/guidance", reapproach_key="/scan/reapproach").setup()
+    assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"] is None

@@ -182,6 +182,10 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         super().setup(**kwargs)
         self._cloud = self.bb.contacts
         table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
+        # nothing of an earlier scan on the same blackboard: its frontier, its re-approach or verdict
+        write(FRONTIER_LEFT_KEY, None)
+        if self.reapproach_key:
+            write(self.reapproach_key, None)
 
     def describe(self) -> str:
         """State, targets tried, frontier cells and blocked ends."""
