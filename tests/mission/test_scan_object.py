@@ -21,6 +21,7 @@ from tactile_bt.testing import LeafHarness, contact_frame, make_features
 from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
                                         RollTo, SquareToSlope, TableClearance, TableOffset)
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
+from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
 from tactile_bt.tree.blackboard import POSE
 
 REPO = Path(__file__).resolve().parents[2]
@@ -643,5 +644,7 @@ def test_a_side_rounding_off_to_the_table_is_explained_by_it():
 def test_a_verdict_of_an_earlier_scan_does_not_end_the_next_one():
     leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
     h.set("/scan/reapproach", {"verdict": "no reachable frontier left, but 32 mm unexplained"})
+    h.set(ATTEMPT_END_KEY, {"attempt": 1, "cause": "stall", "message": "stalled"})
     FrontierGuidance(key="/scan/guidance", reapproach_key="/scan/reapproach").setup()
-    assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"] is None
+    storage = py_trees.blackboard.Blackboard.storage
+    assert storage["/scan/reapproach"] is None and storage[ATTEMPT_END_KEY] is None

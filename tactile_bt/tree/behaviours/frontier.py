@@ -182,7 +182,11 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         super().setup(**kwargs)
         self._cloud = self.bb.contacts
         table_height(self._setup, self.table_key)  # a bad value fails before the mission runs
-        # nothing of an earlier scan on the same blackboard: its frontier, its re-approach or verdict
+        # nothing of an earlier scan on the same blackboard: its guidance, the end of its last
+        # attempt (whose number a new scan reaches too), its frontier, its re-approach or verdict
+        write(self.key, _ZERO_TWIST)
+        write(self.attempt_key, 0)
+        write(self.end_key, None)
         write(FRONTIER_LEFT_KEY, None)
         if self.reapproach_key:
             write(self.reapproach_key, None)
