@@ -33,6 +33,9 @@ POSITION, RPY_DEG = [0.004, -0.006, 0.003], [10, 20, 30]
 GRID_TOLERANCE_M = 2e-5
 #: ... and within this of it within a cell of a sharp crease (tactile_bt.sim.mesh_object).
 GRID_CREASE_ERROR_M = 3e-4
+#: ... and within a cell of an acute wedge (the 40° edge where a pyramid's face meets its base),
+#: which a 1 mm grid rounds off by up to most of a cell.
+GRID_WEDGE_ERROR_M = 1e-3
 
 
 def scene_text(kind: str, fields: dict) -> str:
@@ -60,6 +63,17 @@ def examples(tmp_path_factory):
     """Every registered shape, loaded from its example (built once per module)."""
     tmp = tmp_path_factory.mktemp("shapes")
     return {kind: load_scene(write_scene(tmp, kind, dict(shape_class(kind).example))).objects[0] for kind in SHAPES}
+
+
+def near_crease(obj: SimObject, points: np.ndarray, reach: float = 1.5e-3) -> np.ndarray:
+    """Points within about a grid cell of a sharp crease of ``obj`` (a ridge, a rim): over the
+    cube of ±``reach`` around them, the signed distance departs from a plane by more than
+    2e-5 m (a smooth surface of 10 mm radius or more by less than a third of a millimetre)."""
+    offsets = reach * np.array([[i, j, k] for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], float)
+    values = np.stack([obj.sdf(points + o) for o in offsets], axis=1)          # (N, 27)
+    design = np.column_stack((np.ones(len(offsets)), offsets))                  # (27, 4)
+    fit = values @ np.linalg.pinv(design).T @ design.T                          # the best plane
+    return np.max(np.abs(values - fit), axis=1) > GRID_TOLERANCE_M
 
 
 def probe_points(obj: SimObject, rng: np.random.Generator, n: int = 3000) -> np.ndarray:
@@ -102,16 +116,19 @@ def test_the_compiled_form_agrees_with_the_numpy_signed_distance_and_depth(examp
     rng = np.random.default_rng(1)
     points = probe_points(obj, rng)
     exact = obj.sdf(points)
+    crease = near_crease(obj, points)
     for normal in (np.array([0.0, 0.0, -1.0]), np.array([0.6, 0.0, -0.8])):
         sdf, depth = kernel_sdf_depth(obj, points, normal)
         near = np.abs(exact) < 3e-3  # where the pad touches; farther only the broad phase reads it
         assert near.sum() > 100
-        assert_allclose(sdf[near], exact[near], rtol=0, atol=GRID_TOLERANCE_M)
-        assert_allclose(depth[near], obj.depth(points[near], normal), rtol=0, atol=GRID_TOLERANCE_M)
+        # within a grid cell of a sharp crease (a ridge, a rim) the grid blurs the crease
+        tolerance = np.where(crease[near], GRID_WEDGE_ERROR_M, GRID_TOLERANCE_M)
+        assert np.all(np.abs(sdf[near] - exact[near]) <= tolerance)
+        assert np.all(np.abs(depth[near] - obj.depth(points[near], normal)) <= tolerance)
         # farther outside, never above the true distance: the broad phase keeps every tactel that
         # can touch
         outside = exact > 0
-        assert np.all(sdf[outside] <= exact[outside] + GRID_TOLERANCE_M)
+        assert np.all(sdf[outside] <= exact[outside] + np.where(crease[outside], GRID_WEDGE_ERROR_M, GRID_TOLERANCE_M))
 
 
 @pytest.mark.parametrize("kind", SHAPES)
@@ -131,7 +148,15 @@ def test_the_signed_distance_agrees_with_the_surface_mesh(examples, kind):
     # half a millimetre off it along the face normal: outside; inside, but for a few points in a
     # thin wedge at a sharp rim, where a grid of 1 mm cells blurs the crease
     assert np.all(obj.sdf(world(c + 5e-4 * n)) > 1e-4)
+    # (an acute wedge is thinner than that step near its edge: points within 2 mm of an edge
+    # where the faces' normals turn by more than 90°, such as a pyramid's base edge, are left out)
     inside = obj.sdf(world(c - 5e-4 * n))
+    acute = np.asarray(mesh.face_adjacency_edges)[np.asarray(mesh.face_adjacency_angles) > np.pi / 2]
+    if len(acute):
+        u, v = np.asarray(mesh.vertices)[acute[:, 0]], np.asarray(mesh.vertices)[acute[:, 1]]
+        t = np.clip(np.einsum("mek,ek->me", c[:, None] - u[None], v - u) / np.einsum("ek,ek->e", v - u, v - u), 0, 1)
+        gap = np.linalg.norm(c[:, None] - (u[None] + t[..., None] * (v - u)[None]), axis=2).min(axis=1)
+        inside = inside[gap > 2e-3]
     assert np.all(inside < GRID_CREASE_ERROR_M) and np.mean(inside < -1e-4) > 0.95
 
 
