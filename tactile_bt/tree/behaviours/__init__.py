@@ -21,6 +21,7 @@ from tactile_bt.tree.behaviours.frontier import FrontierGuidance
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 from tactile_bt.tree.behaviours.supervision import SupervisorRetreat
+from tactile_bt.tree.behaviours.stiffness import AdaptForceTarget
 
 #: YAML node type → leaf class.
 LEAVES = {
@@ -45,6 +46,7 @@ LEAVES = {
     "contact_lost": ContactLost,
     "force_limit": ForceLimit,
     "supervisor_retreat": SupervisorRetreat,
+    "adapt_force_target": AdaptForceTarget,
 }
 #: YAML node type → decorator class (first argument: the child).
 DECORATORS = {
@@ -81,6 +83,7 @@ __all__ = [
     "SquareToSlope",
     "ContactLost",
     "SupervisorRetreat",
+    "AdaptForceTarget",
     "ForceLimit",
     "MissionTimeout",
     "Retry",

@@ -18,9 +18,10 @@ import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
+from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
-from tactile_bt.control.servo import PID, feature_error, feature_errors_of, inverse_task_jacobian, per_component
+from tactile_bt.control.servo import PID, ChatterDamper, feature_error, feature_errors_of, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
 
@@ -180,6 +181,12 @@ class ServoLeaf(TactileBehaviour):
     succeeds once every controlled error stays inside ``band`` for ``dwell_s`` seconds;
     otherwise it runs until its parent stops it.
 
+    Every servo leaf damps chatter the same way: an output that switches sign with a large jump
+    tick after tick (a flat pad over a ridge or bridging a concave surface) has its gain
+    reduced and is low-passed until it stops (:class:`~tactile_bt.control.servo.ChatterDamper`,
+    settings in :attr:`chatter`, defaults ``defaults.SERVO_CHATTER_*``); an output that does not
+    chatter passes unchanged.
+
     Parameters
     ----------
     kp, ki, kd : float or list of float
@@ -207,6 +214,10 @@ class ServoLeaf(TactileBehaviour):
                         "output_limit": POSITIVE_OR_INF, "band": POSITIVE, "dwell_s": NON_NEGATIVE,
                         "roll_radius": POSITIVE}
     fixed_parameters = frozenset({"name", "roll_radius"})
+    #: The chatter damping of every servo leaf (:class:`~tactile_bt.control.servo.ChatterDamper`).
+    chatter = {"jump_share": defaults.SERVO_CHATTER_JUMP_SHARE, "step": defaults.SERVO_CHATTER_STEP,
+               "recover_s": defaults.SERVO_CHATTER_RECOVER_S, "gain_min": defaults.SERVO_CHATTER_GAIN_MIN,
+               "smooth_s": defaults.SERVO_CHATTER_SMOOTH_S}
 
     def __init__(
         self,
@@ -248,7 +259,9 @@ class ServoLeaf(TactileBehaviour):
         self._last_twist = _ZERO_TWIST
 
     def _make_pid(self, kp, ki, kd, output_limit) -> PID:
-        return PID(kp, ki, kd, output_limit, n=len(self.components), owner=self.name)
+        pid = PID(kp, ki, kd, output_limit, n=len(self.components), owner=self.name)
+        self.damper = ChatterDamper(pid.output_limit, **self.chatter)
+        return pid
 
     def set_parameter(self, name: str, value) -> None:
         """Gains (``kp``, ``ki``, ``kd``, ``output_limit``), ``band``, ``dwell_s`` and
@@ -306,6 +319,7 @@ class ServoLeaf(TactileBehaviour):
     def initialise(self) -> None:
         self._set_pad(self.pad)
         self.pid.reset()
+        self.damper.reset()
         self._inside_since = None
         self._last_twist = _ZERO_TWIST
 
@@ -328,7 +342,7 @@ class ServoLeaf(TactileBehaviour):
             self._inside_since = None
             self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
             return _RUNNING
-        u = self.pid.update(error, self.dt)  # NaN for the idle components: no command there
+        u = self.damper.apply(self.pid.update(error, self.dt), self.dt)  # idle components: u = 0
         twist = [0.0] * 6
         for j, r, coefficient in self._terms:
             twist[r] += coefficient * u[j]

@@ -9,10 +9,12 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+from py_trees.common import Access
 
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import ServoLeaf
-from tactile_bt.tree.parameters import POSITIVE
+from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.parameters import POSITIVE, normalise_key
 
 __all__ = ["ForceHold", "Centre", "Roll", "AlignEdge", "TactileServo"]
 
@@ -24,10 +26,17 @@ class ForceHold(ServoLeaf):
     RUNNING while it servos (SUCCESS on convergence with ``converge``); its feedback message
     shows the pressure error (measured − target, Pa).
 
+    With ``target_key`` the target follows that blackboard key every cycle (a blackboard
+    reference ``target_pa: "@/key"`` is read only when the leaf starts): one dictionary look-up
+    per cycle, ``target_pa`` while the key holds no positive number. ``adapt_force_target``
+    writes such a key (:mod:`tactile_bt.tree.behaviours.stiffness`).
+
     Parameters
     ----------
     target_pa : float
         Target contact pressure (Pa; the paper's p = 1 is 2000 Pa).
+    target_key : str
+        Blackboard key of a target that replaces ``target_pa`` every cycle (Pa; empty: none).
     kp : float
         Proportional gain ((m/s)/Pa).
     ki : float
@@ -45,6 +54,7 @@ class ForceHold(ServoLeaf):
     rows = (2,)
     parameter_units = {"kp": "(m/s)/Pa", "ki": "(m/s)/(Pa·s)", "kd": "m/Pa", "output_limit": "m/s", "band": "Pa"}
     parameter_bounds = {"target_pa": POSITIVE}
+    fixed_parameters = frozenset({"name", "roll_radius", "target_key"})
 
     def __init__(
         self,
@@ -57,12 +67,26 @@ class ForceHold(ServoLeaf):
         converge: bool = False,
         band: float = 0.05 * defaults.TARGET_PRESSURE_PA,
         dwell_s: float = 0.5,
+        target_key: str = "",
     ) -> None:
         super().__init__(name, kp, ki, kd, output_limit, converge, band, dwell_s)
         self.target_pa = float(target_pa)
+        self.target_key = normalise_key(target_key) if target_key else ""
+        if self.target_key:
+            self._target_client = self.attach_blackboard_client(name=f"{name}/target")
+            self._target_client.register_key(key=self.target_key, access=Access.READ)
+
+    def current_target(self) -> float:
+        """The pressure target of this cycle (Pa): ``target_key``'s value when it holds a
+        positive number, else ``target_pa``."""
+        if self.target_key:
+            value = read_or(self.target_key)
+            if isinstance(value, float) and value > 0.0:
+                return value
+        return self.target_pa
 
     def targets(self):
-        return (0.0, 0.0), self.target_pa, 0.0
+        return (0.0, 0.0), self.current_target(), 0.0
 
 
 def _target_cop(name: str, target_m) -> tuple[float, float]:

@@ -1,0 +1,245 @@
+"""Forces the object can carry: the contact's stiffness estimated while the pad presses, and the
+force target lowered where the object is too soft to carry it.
+
+A soft object (a thin rubber cable, a foam block) gives way under the pad: holding the tree's
+pressure target on it would press it flat, the pad reaching whatever hard lies below (the table)
+while the servos still see a contact. ``adapt_force_target`` estimates how stiff the contact
+is from what the tree can see, the pressure against the pad's own travel along its normal, and
+writes a target the object can carry to a blackboard key that ``force_hold`` (``target_key``)
+and ``record_contacts`` follow every cycle.
+
+The estimate (:class:`ContactStiffness`) is a secant per contact: from the cycle the contact
+begins, the indentation ``d`` is the pad's travel along its own normal (``+z`` of the sensor
+frame, towards the object; summed cycle by cycle, so the pad may turn) and the stiffness is
+``k = (p - p0) / d`` (Pa/m), ``p`` the raw pressure and ``p0`` the pressure when the contact
+began, taken while the pad loads the contact (until the pressure first reaches 0.9 times the
+adapted target) once ``d`` exceeds ``min_travel_m``, then held until the next contact: the
+estimate of a stiff contact, whose target needs less than ``min_travel_m``, stays unknown. Sliding and
+rolling afterwards move the pad along its normal for reasons other than indentation, so they
+do not change the estimate.
+
+What the object can give before the pad reaches something hard is ``max_indentation_m``, or
+less when the set-up's table (``/setup/table_z_m``) lies closer below the contact along the pad
+normal, from where the contact began. The contact carries ``p0 + k · give_share · give`` within
+``give_share`` of that; when this is less than ``target_pa`` it becomes the target, never
+below ``floor_pa``. A lowered target rises again (at most
+``rise_pa_per_s``) when a later contact shows a stiffer object.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Access, Status
+
+from tactile_bt import defaults
+from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
+from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, read, write
+from tactile_bt.tree.parameters import POSITIVE, between, normalise_key
+
+__all__ = ["ContactStiffness", "AdaptForceTarget", "FORCE_TARGET_KEY", "STIFFNESS_KEY"]
+
+#: Blackboard key of the adapted pressure target (Pa).
+FORCE_TARGET_KEY = "/force/target_pa"
+#: Blackboard key of the estimated contact stiffness (Pa/m; NaN while unknown).
+STIFFNESS_KEY = "/force/stiffness_pa_per_m"
+
+
+class ContactStiffness:
+    """Secant contact stiffness per contact (the module's docstring), fed one cycle at a time.
+
+    Parameters
+    ----------
+    min_travel_m : float
+        Indentation (m) from the start of the contact before a secant counts.
+
+    Attributes
+    ----------
+    stiffness_pa_per_m : float
+        The estimate (Pa/m): of the contact under way once loaded past ``min_travel_m``, else of
+        the last contact that was; NaN before any.
+    indentation_m : float
+        The pad's travel along its normal since the contact began (m).
+    onset_pa : float
+        The pressure when the contact began (Pa): the contact threshold already carries some.
+    loading : bool
+        Whether the contact under way is still being loaded (the estimate may still change).
+    """
+
+    def __init__(self, min_travel_m: float = defaults.STIFFNESS_MIN_TRAVEL_M) -> None:
+        self.min_travel_m = float(min_travel_m)
+        self.stiffness_pa_per_m = math.nan
+        self.indentation_m = 0.0
+        self.loading = False
+        self.contacts = 0
+        self._in_contact = False
+        self._position: np.ndarray | None = None
+        self.onset_pa = 0.0
+
+    def update(self, in_contact: bool, pressure_pa: float, pose: np.ndarray, loaded_pa: float) -> bool:
+        """One cycle: raw contact flag and pressure (Pa), the pad's pose ``T_gs`` (m) and the
+        pressure (Pa) at which loading ends. Returns whether the contact began this cycle."""
+        began = in_contact and not self._in_contact
+        self._in_contact = in_contact
+        position = pose[:3, 3]
+        if not in_contact:
+            self.loading = False
+            self._position = None
+            return False
+        if began or self._position is None:
+            self.indentation_m = 0.0
+            self.onset_pa = float(pressure_pa)
+            self.loading = True
+            self.contacts += 1
+        else:
+            step = position - self._position
+            n = pose[:3, 2]
+            self.indentation_m += float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2])
+        self._position = position.copy()
+        if self.loading:
+            d = self.indentation_m
+            rise = pressure_pa - self.onset_pa
+            if d >= self.min_travel_m and rise > 0.0:
+                self.stiffness_pa_per_m = rise / d
+            if pressure_pa >= loaded_pa:
+                self.loading = False
+        return began
+
+
+def carried_target(target_pa: float, floor_pa: float, stiffness_pa_per_m: float, onset_pa: float, give_m: float,
+                   give_share: float) -> float:
+    """The pressure target (Pa) that a contact carries within ``give_share`` of the ``give_m``
+    (m) it can give after it began at ``onset_pa`` (Pa) with ``stiffness_pa_per_m`` (Pa/m):
+    ``target_pa`` when it needs no more indentation, else ``onset_pa + stiffness · give_share ·
+    give``, at least ``floor_pa``; ``target_pa`` while the stiffness is unknown (NaN)."""
+    if not stiffness_pa_per_m > 0.0:
+        return target_pa
+    carried = onset_pa + stiffness_pa_per_m * give_share * give_m
+    return target_pa if carried >= target_pa else max(floor_pa, carried)
+
+
+class AdaptForceTarget(TactileBehaviour):
+    """Estimate the contact's stiffness and write the pressure target the object can carry
+    (module docstring) to ``key``, and the estimate (Pa/m, NaN while unknown) to
+    ``estimate_key``, every cycle; RUNNING. Run it beside the whole task (from before the
+    approach) so that it sees the first contact loaded, and give ``force_hold`` the same key as
+    its ``target_key``.
+
+    Parameters
+    ----------
+    target_pa : float
+        The tree's pressure target (Pa): the adapted target never exceeds it.
+    floor_pa : float
+        Lowest adapted target (Pa): below it the contact is too faint to servo on.
+    give_share : float
+        Share of what the object can give that the target may use (0–1).
+    max_indentation_m : float
+        What an object is taken to give before the pad reaches something hard, where the table
+        below is farther (m).
+    min_travel_m : float
+        Indentation of a contact before its stiffness counts (m).
+    rise_pa_per_s : float
+        Fastest rise of the adapted target (Pa/s); it falls at once.
+    key : str
+        Blackboard key of the adapted target (Pa).
+    estimate_key : str
+        Blackboard key of the estimated stiffness (Pa/m).
+    table_key : str
+        Blackboard key of the table's height (m, world z; absent or NaN: no table).
+    """
+
+    uses = frozenset({"pressure"})
+    fixed_parameters = frozenset({"name", "key", "estimate_key", "table_key"})
+    parameter_units = {"rise_pa_per_s": "Pa/s"}
+    parameter_bounds = {"target_pa": POSITIVE, "floor_pa": POSITIVE, "give_share": between(0, 1, low_open=True),
+                        "max_indentation_m": POSITIVE, "min_travel_m": POSITIVE, "rise_pa_per_s": POSITIVE}
+
+    def __init__(self, name: str = "adapt_force_target", target_pa: float = defaults.TARGET_PRESSURE_PA,
+                 floor_pa: float = defaults.FORCE_TARGET_FLOOR_PA, give_share: float = defaults.STIFFNESS_GIVE_SHARE,
+                 max_indentation_m: float = defaults.STIFFNESS_MAX_INDENTATION_M,
+                 min_travel_m: float = defaults.STIFFNESS_MIN_TRAVEL_M,
+                 rise_pa_per_s: float = defaults.FORCE_TARGET_RISE_PA_PER_S, key: str = FORCE_TARGET_KEY,
+                 estimate_key: str = STIFFNESS_KEY, table_key: str = TABLE_Z_KEY) -> None:
+        super().__init__(name)
+        self.target_pa = float(target_pa)
+        self.floor_pa = float(floor_pa)
+        if not self.floor_pa <= self.target_pa:
+            raise ValueError(f"{name}: floor_pa ({self.floor_pa:g} Pa) must not exceed target_pa "
+                             f"({self.target_pa:g} Pa)")
+        self.give_share = float(give_share)
+        self.max_indentation_m = float(max_indentation_m)
+        self.min_travel_m = float(min_travel_m)
+        self.rise_pa_per_s = float(rise_pa_per_s)
+        self.key, self.estimate_key = normalise_key(key), normalise_key(estimate_key)
+        self.table_key = normalise_key(table_key)
+        self._writer = self.attach_blackboard_client(name=f"{name}/target")
+        for k in (self.key, self.estimate_key):
+            self._writer.register_key(key=k, access=Access.WRITE)
+        self._writer.register_key(key=self.table_key, access=Access.READ)
+        self.estimator = ContactStiffness(self.min_travel_m)
+        self.target = self.target_pa
+        self.give_m = self.max_indentation_m
+        self.lowest_target_pa = self.target_pa
+        self.table_z_m = math.nan
+        write(self.key, self.target)
+        write(self.estimate_key, math.nan)
+
+    def setup(self, **kwargs) -> None:
+        super().setup(**kwargs)
+        table_height(self._writer, self.table_key)  # a bad value fails before the mission runs
+
+    def initialise(self) -> None:
+        self.table_z_m = table_height(self._writer, self.table_key)
+        self.estimator = ContactStiffness(self.min_travel_m)
+        self.target = self.lowest_target_pa = self.target_pa
+        write(self.key, self.target)
+        write(self.estimate_key, math.nan)
+
+    def _give(self, f, T: np.ndarray) -> float:
+        """What the object can give at the contact beginning now (m): ``max_indentation_m``, or
+        the distance along the pad normal from the contact to the table when that is less."""
+        give = self.max_indentation_m
+        n_z = float(T[2, 2])
+        if math.isfinite(self.table_z_m) and n_z < -0.2:  # the normal points down at the table
+            x, y = f.cop_xy
+            contact_z = float(T[2, 0] * x + T[2, 1] * y + T[2, 3])
+            give = min(give, max(contact_z - self.table_z_m, 0.0) / -n_z)
+        return give
+
+    def update(self) -> Status:
+        f = read(FEATURES_RAW)
+        T = read(POSE)
+        estimator = self.estimator
+        if estimator.update(bool(f.in_contact), float(f.pressure), T, 0.9 * self.target):
+            self.give_m = self._give(f, T)
+        wanted = carried_target(self.target_pa, self.floor_pa, estimator.stiffness_pa_per_m, estimator.onset_pa,
+                                self.give_m, self.give_share)
+        if wanted > self.target:
+            wanted = min(wanted, self.target + self.rise_pa_per_s * self.dt)
+        self.target = wanted
+        if wanted < self.lowest_target_pa:
+            self.lowest_target_pa = wanted
+        write(self.key, wanted)
+        write(self.estimate_key, estimator.stiffness_pa_per_m)
+        self._feedback = None
+        return Status.RUNNING
+
+    def describe(self) -> str:
+        """The estimate and the target of the last tick."""
+        k = self.estimator.stiffness_pa_per_m
+        estimate = "stiffness unknown" if math.isnan(k) else f"stiffness {k:.3g} Pa/m"
+        return f"{estimate}, target {self.target:.0f} Pa"
+
+    def summary(self) -> dict:
+        """What report.json shows under ``force.stiffness``: the estimate (Pa/m, None while
+        unknown), the give of the last contact (m), the adapted target at the end and the lowest
+        one (Pa), and the contacts seen."""
+        k = self.estimator.stiffness_pa_per_m
+        return {"node": self.name, "stiffness_pa_per_m": None if math.isnan(k) else float(k),
+                "give_m": float(self.give_m), "target_pa": float(self.target),
+                "lowest_target_pa": float(self.lowest_target_pa), "tree_target_pa": self.target_pa,
+                "contacts": self.estimator.contacts}
