@@ -80,6 +80,8 @@ FORCE_TARGET_RISE_PA_PER_S: float = 1000.0
 #: A sign change of a servo output between two cycles counts as chatter when it jumps by at
 #: least this share of the output limit ...
 SERVO_CHATTER_JUMP_SHARE: float = 0.5
+#: ... and comes within this time of the previous one (s) ...
+SERVO_CHATTER_GAP_S: float = 0.05
 #: ... and raises the chatter level (0-1) by this much, ...
 SERVO_CHATTER_STEP: float = 0.25
 #: ... which falls back from 1 to 0 in this time without chatter (s).
@@ -88,6 +90,16 @@ SERVO_CHATTER_RECOVER_S: float = 1.0
 SERVO_CHATTER_GAIN_MIN: float = 0.3
 #: Time constant of the low-pass on a servo output at full chatter (s).
 SERVO_CHATTER_SMOOTH_S: float = 0.1
+
+# --- Contacts recorded only when settled (tactile_bt.tree.behaviours.contact_points) ----------
+#: record_contacts records while the smoothed pressure is at most this many times the target ...
+RECORD_MAX_PRESSURE_RATIO: float = 2.0
+#: ... and at least this many times it ...
+RECORD_MIN_PRESSURE_RATIO: float = 0.25
+#: ... while contact outside the largest region carries at most this share of its force ...
+RECORD_OTHER_REGION_SHARE: float = 0.2
+#: ... and while the pad moves into the object along its normal at most this fast (m/s).
+RECORD_MAX_APPROACH_MPS: float = 0.005
 
 #: Approach: speed along the pad normal (m/s) and the pressure that ends it (Pa).
 APPROACH_SPEED_MPS: float = 0.01

@@ -261,7 +261,9 @@ class ChatterDamper:
     jump from one side to the other as the pad turns: a rolling or sliding loop then saturates in
     one direction and the next, every cycle. Each component keeps a chatter level ``c`` in
     [0, 1]: a sign change whose jump is at least ``jump_share`` of the component's output limit
-    raises it by ``step``, and it falls by ``dt / recover_s`` a cycle otherwise. The output is
+    and that comes within ``gap_s`` of the previous one raises it by ``step`` (one sign change
+    alone, a loop reversing once, does not), and it falls by ``dt / recover_s`` a cycle
+    otherwise. The output is
     then ``y += (g·u − y) · dt / (dt + c·smooth_s)`` with the gain ``g = 1 − (1 − gain_min)·c``:
     the gain reduced and the output low-passed while the loop chatters, and ``y = u`` exactly
     while it does not (``c = 0``). Components without a finite limit are left alone.
@@ -280,13 +282,16 @@ class ChatterDamper:
         Gain at full chatter (0–1).
     smooth_s : float
         Time constant of the output's low-pass at full chatter (s).
+    gap_s : float
+        Longest time between two large sign changes that count as chatter (s).
     """
 
     def __init__(self, output_limit: Sequence[float], jump_share: float, step: float, recover_s: float,
-                 gain_min: float, smooth_s: float) -> None:
+                 gain_min: float, smooth_s: float, gap_s: float) -> None:
         self.jumps = [jump_share * lim if math.isfinite(lim) else math.inf for lim in output_limit]
         self.step, self.recover_s, self.gain_min, self.smooth_s = float(step), float(recover_s), float(gain_min), \
             float(smooth_s)
+        self.gap_s = float(gap_s)
         self.n = len(self.jumps)
         self.reset()
 
@@ -295,19 +300,23 @@ class ChatterDamper:
         self.level = [0.0] * self.n
         self._u = [0.0] * self.n
         self._y = [0.0] * self.n
+        self._since = [math.inf] * self.n  # time since the last large sign change (s)
         self.counted = 0
 
     def apply(self, u: list[float], dt: float) -> list[float]:
         """The damped outputs of one cycle for the PID outputs ``u``."""
-        level, previous, outputs, jumps = self.level, self._u, self._y, self.jumps
+        level, previous, outputs, jumps, since = self.level, self._u, self._y, self.jumps, self._since
         decay = dt / self.recover_s
         out = list(u)
         for i in range(self.n):
             v, p = u[i], previous[i]
             c = level[i]
+            since[i] += dt
             if v * p < 0.0 and abs(v - p) >= jumps[i]:
-                c = min(1.0, c + self.step)
-                self.counted += 1
+                if since[i] <= self.gap_s:
+                    c = min(1.0, c + self.step)
+                    self.counted += 1
+                since[i] = 0.0
             elif c > 0.0:
                 c = max(0.0, c - decay)
             level[i] = c

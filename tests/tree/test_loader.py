@@ -96,17 +96,21 @@ def test_cable_follow_loads_with_the_expected_nodes():
 
 
 def test_the_project_cable_tree_keeps_its_shape():
-    """trees/cable_follow.yaml: approach, settle on the cable, then a parallel that slides,
-    records and ends at the end of the cable."""
-    from tactile_bt.tree.behaviours import CableEnd, MissionTimeout
+    """trees/cable_follow.yaml: beside the stiffness estimate, approach, settle on the cable,
+    then a parallel that slides, records and ends at the end of the cable, its force hold
+    following the adapted target."""
+    from tactile_bt.tree.behaviours import AdaptForceTarget, CableEnd, MissionTimeout
 
-    root = load_tree(CABLE_TREE).root
-    approach, settle, follow = root.children
+    adapt, task = load_tree(CABLE_TREE).root.children
+    assert isinstance(adapt, AdaptForceTarget)
+    approach, settle, follow = task.children
     assert isinstance(approach, Approach) and isinstance(settle, MissionTimeout)
     kinds = {type(c) for c in follow.children}
     assert {ForceHold, Centre, AlignEdge, GuidedSlide, RecordContacts, CableEnd} <= kinds
     recorder = next(c for c in follow.children if isinstance(c, RecordContacts))
     assert recorder.only_when == "/cable/on_line"
+    hold = next(c for c in follow.children if isinstance(c, ForceHold))
+    assert hold.target_key == adapt.key == recorder.target_key
 
 
 def python_cable_follow():

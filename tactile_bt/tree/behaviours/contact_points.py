@@ -3,6 +3,16 @@ centre of pressure (or the whole contact imprint) is carried to the base frame t
 forward kinematics ``T_gs`` into the mission's contact cloud
 (:class:`~tactile_bt.contacts.cloud.ContactCloud`, on the blackboard).
 
+Only a settled contact is a measurement: the pad surface lies inside the object by what the
+pressure compresses, so a contact pressed far above its target, a pad that bridges a hollow
+(two regions at its borders, each pressed in deep) or a pad still moving into the object
+records points that lie inside it. The leaf records a cycle only while the contact is one region
+(any other region carries at most ``other_region_share`` of its force), the smoothed pressure
+lies between ``min_pressure_ratio`` and ``max_pressure_ratio`` times the pressure target (the
+adapted one of ``target_key`` when written, :mod:`tactile_bt.tree.behaviours.stiffness`) and the
+pad moves into the object at most at ``max_approach_mps``; of an imprint (``point: region``)
+only the points whose local pressure stays within ``max_pressure_ratio`` times the target.
+
 Layer: tree.
 """
 
@@ -15,14 +25,16 @@ from typing import Literal
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, POSE, TIME, read, read_or
+from tactile_bt.tree.behaviours.stiffness import FORCE_TARGET_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, normalise_key
 from tactile_bt.perception.features import local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["RecordContacts", "imprint_points"]
+__all__ = ["RecordContacts", "imprint_points", "other_contact"]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -62,6 +74,17 @@ def _dilated(mask: np.ndarray) -> np.ndarray:
     region[:, 1:] |= mask[:, :-1]
     region[:, :-1] |= mask[:, 1:]
     return region
+
+
+def other_contact(features, threshold_n: float = defaults.CONTACT_THRESHOLD_N) -> tuple[float, int]:
+    """Force (N) and tactels of the contact outside the largest region and its fringe: a second
+    contact, such as the other border of a flat pad bridging a hollow. ``(0.0, 0)`` without an
+    image or contact."""
+    image = features.image
+    if image is None or not features.in_contact:
+        return 0.0, 0
+    outside = image[(image > threshold_n) & ~_dilated(features.mask)]
+    return (float(outside.sum()), int(outside.size)) if outside.size else (0.0, 0)
 
 
 def _percentile(values: np.ndarray, q: float) -> float:
@@ -160,19 +183,42 @@ class RecordContacts(TactileBehaviour):
     table_key : str
         Blackboard key of the table's height (m, world z; absent or NaN: no table), read when
         the leaf starts (:mod:`tactile_bt.tree.behaviours.table`).
+    max_pressure_ratio : float
+        Record only while the smoothed pressure is at most this many times the target, and of an
+        imprint only the points whose local pressure is (inf: no limit).
+    min_pressure_ratio : float
+        Record only while the smoothed pressure is at least this many times the target (0: from
+        the first touch).
+    other_region_share : float
+        Record only while the tactels in contact outside the largest region (and its fringe)
+        carry at most this share of its force (inf: never check).
+    max_approach_mps : float
+        Record only while the pad moves into the object along its normal at most this fast
+        (m/s; inf: never check).
+    nominal_pa : float
+        The pressure target (Pa) while ``target_key`` holds none.
+    target_key : str
+        Blackboard key of the adapted pressure target (Pa), read every cycle (empty: none).
     """
 
     uses = frozenset({"cop", "pressure"})
-    fixed_parameters = frozenset({"name", "point", "reconstruct", "table_key"})
+    fixed_parameters = frozenset({"name", "point", "reconstruct", "table_key", "target_key"})
     parameter_bounds = {"min_spacing_m": NON_NEGATIVE, "voxel_m": NON_NEGATIVE,
                         "region_level": between(0, 1, low_open=True), "region_step_m": POSITIVE,
-                        "table_margin_m": NON_NEGATIVE}
+                        "table_margin_m": NON_NEGATIVE, "max_pressure_ratio": POSITIVE_OR_INF,
+                        "min_pressure_ratio": NON_NEGATIVE, "other_region_share": POSITIVE_OR_INF,
+                        "max_approach_mps": POSITIVE_OR_INF, "nominal_pa": POSITIVE}
 
     def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
                  point: Literal["cop", "local", "region"] = "cop", voxel_m: float = 0.0,
                  region_level: float = 0.5, region_step_m: float = 0.0025,
                  reconstruct: Literal["none", "auto", "delaunay", "surface", "hull"] = "none",
-                 only_when: str = "", table_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY) -> None:
+                 only_when: str = "", table_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY,
+                 max_pressure_ratio: float = defaults.RECORD_MAX_PRESSURE_RATIO,
+                 min_pressure_ratio: float = defaults.RECORD_MIN_PRESSURE_RATIO,
+                 other_region_share: float = defaults.RECORD_OTHER_REGION_SHARE,
+                 max_approach_mps: float = defaults.RECORD_MAX_APPROACH_MPS,
+                 nominal_pa: float = defaults.TARGET_PRESSURE_PA, target_key: str = FORCE_TARGET_KEY) -> None:
         super().__init__(name)
         if point not in ("cop", "local", "region"):
             raise ValueError(f"{name}: point must be 'cop', 'local' or 'region', got {point!r}")
@@ -188,9 +234,18 @@ class RecordContacts(TactileBehaviour):
         self.set_parameter("region_level", region_level)
         self.set_parameter("region_step_m", region_step_m)
         self.set_parameter("table_margin_m", table_margin_m)
+        for key, value in (("max_pressure_ratio", max_pressure_ratio), ("min_pressure_ratio", min_pressure_ratio),
+                           ("other_region_share", other_region_share), ("max_approach_mps", max_approach_mps),
+                           ("nominal_pa", nominal_pa)):
+            self.set_parameter(key, value)
+        self.target_key = normalise_key(target_key) if target_key else ""
         self.table_key = normalise_key(table_key)
         self._setup = self.attach_blackboard_client(name=f"{name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
+        if self.target_key:
+            self._setup.register_key(key=self.target_key, access=Access.READ)
+        self._position: np.ndarray | None = None  # the pad's position last cycle (m, world)
+        self.skipped = 0  # cycles in contact not recorded because the contact was not settled
         self._floor = -math.inf  # points at or below this z (m) are the table's
         self._last: list[float] | None = None  # the last recorded contact point (m, world)
         self._last_rotation: np.ndarray | None = None
@@ -203,7 +258,8 @@ class RecordContacts(TactileBehaviour):
             raise ValueError(f"{self.name}: region_level must be in (0, 1], got {value}")
         if name == "region_step_m" and not value > 0:
             raise ValueError(f"{self.name}: region_step_m must be positive, got {value}")
-        numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m", "table_margin_m")
+        numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m", "table_margin_m", "max_pressure_ratio",
+                   "min_pressure_ratio", "other_region_share", "max_approach_mps", "nominal_pa")
         super().set_parameter(name, float(value) if name in numeric else value)
 
     def describe(self) -> str:
@@ -220,6 +276,7 @@ class RecordContacts(TactileBehaviour):
     def initialise(self) -> None:
         self._last = None
         self._last_rotation = None
+        self._position = None
         table_z = table_height(self._setup, self.table_key)
         self._floor = table_z + self.table_margin_m if self.table_margin_m > 0 and math.isfinite(table_z) else -math.inf
 
@@ -228,6 +285,8 @@ class RecordContacts(TactileBehaviour):
         # products stay as they were (BLAS rounds them its own way).
         f = read(FEATURES_RAW)
         self._feedback = None
+        T = read(POSE)
+        approach = self._approach_speed(T)
         if not f.in_contact:
             self._in_contact = False
             return Status.RUNNING
@@ -235,7 +294,12 @@ class RecordContacts(TactileBehaviour):
         if self.only_when and not read_or(self.only_when, False):
             self._feedback = f"{len(self.contacts)} contacts, not recording ({self.only_when} is false)"
             return Status.RUNNING
-        T = read(POSE)
+        target = self.current_target()
+        unsettled = self._unsettled(f, target, approach)
+        if unsettled:
+            self.skipped += 1
+            self._feedback = f"{len(self.contacts)} contacts, not recording ({unsettled})"
+            return Status.RUNNING
         R = T[:3, :3]
         if self.point == "local":
             if f.orientation != f.orientation:  # no line direction this cycle: the COP lies on the chord
@@ -257,7 +321,7 @@ class RecordContacts(TactileBehaviour):
                     moved += f.pad.half_width_m * math.sqrt(turn.dot(turn)) / _SQRT2
                     if moved < self.min_spacing_m:
                         return Status.RUNNING
-            self._record_region(f, T)
+            self._record_region(f, T, target)
             self._last, self._last_rotation = p, R.copy()
             return Status.RUNNING
         if p[2] <= self._floor:  # a contact with the table, not the object
@@ -274,9 +338,47 @@ class RecordContacts(TactileBehaviour):
         self._last = p
         return Status.RUNNING
 
-    def _record_region(self, f, T: np.ndarray) -> None:
-        """Add the imprint of ``f`` with the pad at ``T`` to the cloud."""
+    def current_target(self) -> float:
+        """The pressure target of this cycle (Pa): ``target_key``'s value when it holds a
+        positive number, else ``nominal_pa``."""
+        if self.target_key:
+            value = read_or(self.target_key)
+            if isinstance(value, float) and value > 0.0:
+                return value
+        return self.nominal_pa
+
+    def _approach_speed(self, T: np.ndarray) -> float:
+        """The pad's speed into the object along its normal since last cycle (m/s)."""
+        position = T[:3, 3]
+        previous, self._position = self._position, position.copy()
+        if previous is None:
+            return 0.0
+        n = T[:3, 2]
+        step = position - previous
+        return float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2]) / self.dt
+
+    def _unsettled(self, f, target: float, approach_mps: float) -> str:
+        """Why the contact of ``f`` is not settled ("" when it is)."""
+        pressure = read(FEATURES).pressure
+        if pressure > self.max_pressure_ratio * target:
+            return f"pressure {pressure:.0f} Pa above {self.max_pressure_ratio:g} x {target:.0f} Pa"
+        if pressure < self.min_pressure_ratio * target:
+            return f"pressure {pressure:.0f} Pa below {self.min_pressure_ratio:g} x {target:.0f} Pa"
+        if approach_mps > self.max_approach_mps:
+            return f"pressing in at {approach_mps * 1e3:.1f} mm/s"
+        if self.other_region_share < math.inf and f.force > 0.0:
+            others, _ = other_contact(f)
+            if others > self.other_region_share * f.force:
+                return f"a second region carrying {others / f.force:.0%} of the first's force"
+        return ""
+
+    def _record_region(self, f, T: np.ndarray, target: float) -> None:
+        """Add the imprint of ``f`` with the pad at ``T`` to the cloud, leaving out the points
+        pressed above ``max_pressure_ratio`` times ``target`` (Pa)."""
         local, pressure = imprint_points(f, self.region_level, self.region_step_m)
+        if len(pressure) and self.max_pressure_ratio < math.inf:
+            kept = pressure <= self.max_pressure_ratio * target
+            local, pressure = local[kept], pressure[kept]
         world = local @ T[:3, :3].T + T[:3, 3]
         if self._floor > -math.inf and len(world):  # never the table's contacts
             above = world[:, 2] > self._floor

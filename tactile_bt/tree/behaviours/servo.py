@@ -13,7 +13,8 @@ from py_trees.common import Access
 
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import ServoLeaf
-from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.behaviours.contact_points import other_contact
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, read, read_or
 from tactile_bt.tree.parameters import POSITIVE, normalise_key
 
 __all__ = ["ForceHold", "Centre", "Roll", "AlignEdge", "TactileServo"]
@@ -31,12 +32,22 @@ class ForceHold(ServoLeaf):
     per cycle, ``target_pa`` while the key holds no positive number. ``adapt_force_target``
     writes such a key (:mod:`tactile_bt.tree.behaviours.stiffness`).
 
+    With ``all_regions`` the leaf holds the highest pressure of the contact at the target: the
+    pressure of the largest region (Eq. 2), or of the tactels in contact outside it (a second
+    contact, such as the far border of a flat pad bridging a hollow, low-passed over
+    ``smoothing_s``) when that is higher. Servoing on the largest region alone would press on
+    while the other border carries more and more. The logged error stays the largest region's.
+
     Parameters
     ----------
     target_pa : float
         Target contact pressure (Pa; the paper's p = 1 is 2000 Pa).
     target_key : str
         Blackboard key of a target that replaces ``target_pa`` every cycle (Pa; empty: none).
+    all_regions : bool
+        Hold the highest pressure of every contact region at the target, not only the largest's.
+    smoothing_s : float
+        Time constant of the low-pass on the other regions' pressure (s).
     kp : float
         Proportional gain ((m/s)/Pa).
     ki : float
@@ -53,7 +64,7 @@ class ForceHold(ServoLeaf):
     components = (2,)
     rows = (2,)
     parameter_units = {"kp": "(m/s)/Pa", "ki": "(m/s)/(Pa·s)", "kd": "m/Pa", "output_limit": "m/s", "band": "Pa"}
-    parameter_bounds = {"target_pa": POSITIVE}
+    parameter_bounds = {"target_pa": POSITIVE, "smoothing_s": POSITIVE}
     fixed_parameters = frozenset({"name", "roll_radius", "target_key"})
 
     def __init__(
@@ -68,9 +79,15 @@ class ForceHold(ServoLeaf):
         band: float = 0.05 * defaults.TARGET_PRESSURE_PA,
         dwell_s: float = 0.5,
         target_key: str = "",
+        all_regions: bool = True,
+        smoothing_s: float = defaults.SMOOTHING_SAMPLES / defaults.RATE_HZ / 2,
     ) -> None:
         super().__init__(name, kp, ki, kd, output_limit, converge, band, dwell_s)
         self.target_pa = float(target_pa)
+        self.all_regions = bool(all_regions)
+        self.smoothing_s = float(smoothing_s)
+        self._other_pa = 0.0  # low-passed pressure of the contact outside the largest region (Pa)
+        self._excess_pa = 0.0  # by how much it exceeded the largest region's this cycle (Pa)
         self.target_key = normalise_key(target_key) if target_key else ""
         if self.target_key:
             self._target_client = self.attach_blackboard_client(name=f"{name}/target")
@@ -85,8 +102,29 @@ class ForceHold(ServoLeaf):
                 return value
         return self.target_pa
 
+    def initialise(self) -> None:
+        super().initialise()
+        self._other_pa = self._excess_pa = 0.0
+
     def targets(self):
-        return (0.0, 0.0), self.current_target(), 0.0
+        target = self.current_target()
+        if not self.all_regions:
+            return (0.0, 0.0), target, 0.0
+        raw = read(FEATURES_RAW)
+        force, count = other_contact(raw)
+        other = force / (count * raw.pad.tactel_area_m2) if count else 0.0
+        self._other_pa += (other - self._other_pa) * self.dt / (self.dt + self.smoothing_s)
+        # the error target - max(p, p_other), written as a lower target for the same formula
+        pressure = read(FEATURES).pressure
+        excess = self._other_pa - pressure if self._other_pa > pressure else 0.0
+        self._excess_pa = excess
+        return (0.0, 0.0), target - excess, 0.0
+
+    def update(self):
+        status = super().update()
+        if self._excess_pa and "pressure_pa" in self.command.errors:
+            self.command.errors["pressure_pa"] -= self._excess_pa  # the largest region's error, as logged
+        return status
 
 
 def _target_cop(name: str, target_m) -> tuple[float, float]:

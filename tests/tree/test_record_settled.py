@@ -1,0 +1,76 @@
+"""record_contacts records only a settled contact: one region, the pressure near its (adapted)
+target, the pad not pressing in; of an imprint only the points pressed within the limit."""
+
+import numpy as np
+import pytest
+
+from tactile_bt import defaults
+from tactile_bt.control.spatial import make_pose
+from tactile_bt.testing import LeafHarness, fresh_blackboard, make_features
+from tactile_bt.tree.behaviours import RecordContacts
+from tactile_bt.tree.behaviours.stiffness import FORCE_TARGET_KEY
+
+DT = 1.0 / defaults.RATE_HZ
+DOWN = np.diag([1.0, -1.0, -1.0])  # sensor z = world -z: into an object below
+
+
+@pytest.fixture(autouse=True)
+def _blackboard():
+    with fresh_blackboard():
+        yield
+
+
+def blob(image: np.ndarray, row: int, col: int, force_n: float) -> None:
+    """A 3x3 contact of ``force_n`` newtons centred on tactel (row, col)."""
+    image[row - 1:row + 2, col - 1:col + 2] += force_n / 9.0
+
+
+def test_a_contact_pressed_far_above_its_target_is_not_recorded_and_the_adapted_target_counts():
+    h = LeafHarness(RecordContacts(), dt=DT)
+    h.tick(make_features(pressure=3900.0))
+    assert len(h.contacts) == 1  # within twice the 2 kPa default
+    h.tick(make_features(pressure=4100.0))
+    assert len(h.contacts) == 1
+    assert "not recording (pressure 4100 Pa above 2 x 2000 Pa)" in h.behaviour.feedback_message
+    h.set(FORCE_TARGET_KEY, 500.0)  # a soft object: the target was lowered
+    h.tick(make_features(pressure=1500.0))
+    assert len(h.contacts) == 1 and h.behaviour.skipped == 2
+    h.tick(make_features(pressure=600.0))
+    assert len(h.contacts) == 2
+
+
+def test_a_pad_bridging_a_hollow_records_nothing():
+    h = LeafHarness(RecordContacts(), dt=DT)
+    image = np.zeros((16, 16))
+    blob(image, 7, 2, 0.5)  # 2.2 kPa
+    h.tick(frame=image)
+    assert len(h.contacts) == 1  # one region
+    blob(image, 7, 13, 0.4)  # a second contact at the other border
+    h.tick(frame=image)
+    assert len(h.contacts) == 1
+    assert "second region" in h.behaviour.feedback_message
+
+
+def test_a_pad_still_moving_into_the_object_records_nothing():
+    h = LeafHarness(RecordContacts(max_approach_mps=0.005), dt=DT, pose=make_pose(DOWN, (0.0, 0.0, 0.05)))
+    for k, speed in enumerate((0.0, 0.002, 0.01, -0.01)):  # m/s along the pad normal (world -z)
+        h.set_pose(make_pose(DOWN, (0.0, 0.0, 0.05 - speed * DT * (k + 1))))
+        h.tick(make_features())
+    # the first cycle has no speed yet; then 2 mm/s passes, 10 mm/s into the object does not,
+    # backing off does
+    assert [round(t / DT) for t in h.contacts.data[:, 7]] == [0, 1, 3]
+
+
+def test_an_imprint_keeps_only_the_points_pressed_within_the_limit():
+    image = np.zeros((16, 16))
+    image[4:12, 4:12] = 0.05  # 2 kPa on 64 tactels
+    image[7:9, 7:9] = 0.25  # a hard spot of 10 kPa in the middle
+    h = LeafHarness(RecordContacts(point="region", region_level=0.1, other_region_share=np.inf,
+                                   max_pressure_ratio=np.inf), dt=DT)
+    h.tick(frame=image)
+    everything = len(h.contacts)
+    limited = LeafHarness(RecordContacts(point="region", region_level=0.1, other_region_share=np.inf), dt=DT)
+    limited.tick(frame=image)
+    pressures = limited.contacts.data[:, 6]
+    assert 0 < len(limited.contacts) < everything
+    assert pressures.max() <= 2 * defaults.TARGET_PRESSURE_PA
