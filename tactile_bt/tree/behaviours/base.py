@@ -214,8 +214,6 @@ class ServoLeaf(TactileBehaviour):
                         "output_limit": POSITIVE_OR_INF, "band": POSITIVE, "dwell_s": NON_NEGATIVE,
                         "roll_radius": POSITIVE}
     fixed_parameters = frozenset({"name", "roll_radius"})
-    #: Whether a rolling leaf turns the pad about the contact point (see the class docstring).
-    pivot_on_contact: bool = True
     #: The chatter damping of every servo leaf (:class:`~tactile_bt.control.servo.ChatterDamper`).
     chatter = {"jump_share": defaults.SERVO_CHATTER_JUMP_SHARE, "step": defaults.SERVO_CHATTER_STEP,
                "recover_s": defaults.SERVO_CHATTER_RECOVER_S, "gain_min": defaults.SERVO_CHATTER_GAIN_MIN,
@@ -248,9 +246,6 @@ class ServoLeaf(TactileBehaviour):
         # Components with no row in P·J⁻¹ are not controlled (e.g. a tactile_servo whose P
         # leaves them out): they neither gate the leaf on NaN nor appear in the error log.
         self._active = [j for j in range(n) if self._rows_of[j]]
-        # A leaf that rolls (rows ωx, ωy) turns the pad about the contact point, so that rolling
-        # neither presses the contact in nor lifts it off.
-        self._pivots = self.pivot_on_contact and bool({3, 4} & set(self.rows))
         # Their errors are computed only when read (last_error); their PID loops would run for
         # nothing and see NaN (state held, u = 0).
         self._error = feature_errors_of(self.components, self._active)
@@ -351,11 +346,6 @@ class ServoLeaf(TactileBehaviour):
         twist = [0.0] * 6
         for j, r, coefficient in self._terms:
             twist[r] += coefficient * u[j]
-        if self._pivots:
-            # roll about the contact, not the pad centre: the contact point c = (x, y, 0) moves
-            # along the normal at ωx·y − ωy·x as the pad turns, which the pad gives back along z
-            x, y = f.cop_xy
-            twist[2] += twist[4] * x - twist[3] * y
         self._last_twist = twist
         command.add(self.name, twist)
         self._feedback = None  # described on demand from last_error

@@ -6,12 +6,16 @@ forward kinematics ``T_gs`` into the mission's contact cloud
 Only a settled contact is a measurement: the pad surface lies inside the object by what the
 pressure compresses, so a contact pressed far above its target, a pad that bridges a hollow
 (two regions at its borders, each pressed in deep) or a pad still moving into the object
-records points that lie inside it. The leaf records a cycle only while the contact is one region
-(any other region carries at most ``other_region_share`` of its force), the smoothed pressure
+records points that lie inside it. The leaf records a cycle only while the smoothed pressure
 lies between ``min_pressure_ratio`` and ``max_pressure_ratio`` times the pressure target (the
 adapted one of ``target_key`` when written, :mod:`tactile_bt.tree.behaviours.stiffness`) and the
-pad moves into the object at most at ``max_approach_mps``; of an imprint (``point: region``)
-only the points whose local pressure stays within ``max_pressure_ratio`` times the target.
+pad moves into the object at most at ``max_approach_mps``. A contact point (``cop``, ``local``)
+is recorded only while the contact is one region (any other region carries at most
+``other_region_share`` of its force): the centre of pressure of a pad bridging a hollow lies
+between its two contacts. Of an imprint (``point: region``) only the points whose local
+pressure stays within ``max_pressure_ratio`` times the target are recorded; it is the largest
+region's alone, so a second region does not stop it (a flat pad bridging a hollow touches at
+its borders only, and would otherwise record nothing there).
 
 Layer: tree.
 """
@@ -190,8 +194,8 @@ class RecordContacts(TactileBehaviour):
         Record only while the smoothed pressure is at least this many times the target (0: from
         the first touch).
     other_region_share : float
-        Record only while the tactels in contact outside the largest region (and its fringe)
-        carry at most this share of its force (inf: never check).
+        ``point: cop`` or ``local``: record only while the tactels in contact outside the largest
+        region (and its fringe) carry at most this share of its force (inf: never check).
     max_approach_mps : float
         Record only while the pad moves into the object along its normal at most this fast
         (m/s; inf: never check).
@@ -366,7 +370,7 @@ class RecordContacts(TactileBehaviour):
             return f"pressure {pressure:.0f} Pa below {self.min_pressure_ratio:g} x {target:.0f} Pa"
         if approach_mps > self.max_approach_mps:
             return f"pressing in at {approach_mps * 1e3:.1f} mm/s"
-        if self.other_region_share < math.inf and f.force > 0.0:
+        if self.point != "region" and self.other_region_share < math.inf and f.force > 0.0:
             others, _ = other_contact(f)
             if others > self.other_region_share * f.force:
                 return f"a second region carrying {others / f.force:.0%} of the first's force"
