@@ -225,17 +225,14 @@ class RerunRecorder:
                             columns=rr.Transform3D.columns(translation=log.position[k], mat3x3=log.rotation[k]))
 
     def _log_scene(self, scene) -> None:
-        """The scene's objects (simulated truth), static: the cable as its centreline, other
-        shapes as triangle meshes; the table is left out."""
-        from tactile_bt.sim.objects import Cable, Table
-
+        """The scene's objects (simulated truth), static: a cable as its centreline, other
+        shapes as triangle meshes; objects without a surface mesh (the table) are left out."""
         rr, stream = self.rr, self.stream
         for i, obj in enumerate(scene.objects):
-            if isinstance(obj, Table):
-                continue
-            if isinstance(obj, Cable):
-                stream.log(f"object/{i}", rr.LineStrips3D([obj.centreline_world()], radii=obj.radius,
-                                                           colors=[(74, 120, 181)]), static=True)
+            line = obj.centreline()
+            if line is not None:
+                stream.log(f"object/{i}", rr.LineStrips3D([line[0]], radii=line[1], colors=[(74, 120, 181)]),
+                           static=True)
                 continue
             mesh = _object_mesh(obj)
             if mesh is not None:

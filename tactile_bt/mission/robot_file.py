@@ -40,17 +40,23 @@ import numpy as np
 
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.robot.ros2 import SERVO_TWIST_TOPIC, Ros2Settings
-from tactile_bt.yamlutil import Located, load_located, plain
+from tactile_bt.sim.scene import SUPERVISOR
+from tactile_bt.sim.schema import (ANGLE_DEG, BOOL, COORD, LIST, MAPPING, NUMBER, STR, ListOf, Range, check_fields,
+                                   check_keys, check_value)
+from tactile_bt.yamlutil import Located, load_located
 
 __all__ = ["RobotFile", "load_robot_file", "write_robot_file"]
 
-_TOP = ("type", "rate_hz", "ros2", "sensor", "setup", "supervisor")
-_ROS2 = ("twist_topic", "base_frame", "pose_topic", "flange_to_pad", "joint_state_topic", "joint_limits_rad",
-         "node_name", "network")
-_SENSOR = ("module", "calibration")
-_SETUP = ("table_z_m",)
-_SUPERVISOR = ("pressure_limit_pa", "force_limit_n", "grace_s", "clear_s", "retreat_speed_mps", "sensor_silence_s",
-               "pose_stale_s", "workspace_min_m", "workspace_max_m")
+#: The robot file's sections and fields, checked by :func:`tactile_bt.sim.schema.check_fields`
+#: like a scene (the ``supervisor`` section is the scene's, with the same bounds).
+_TOP = {"type": STR, "rate_hz": Range(0.0, lo_open=True, unit="Hz"), "ros2": MAPPING, "sensor": MAPPING,
+        "setup": MAPPING, "supervisor": MAPPING}
+_ROS2 = {"twist_topic": STR, "base_frame": STR, "pose_topic": STR, "flange_to_pad": MAPPING,
+         "joint_state_topic": STR, "joint_limits_rad": MAPPING, "node_name": STR, "network": BOOL}
+_TRANSFORM = {"xyz_m": ListOf(3, COORD), "rpy_deg": ListOf(3, ANGLE_DEG)}
+_LIMITS = {"lower": LIST, "upper": LIST}
+_SENSOR = {"module": STR, "calibration": STR}
+_SETUP = {"table_z_m": COORD}
 
 
 @dataclass(frozen=True)
@@ -85,64 +91,49 @@ class RobotFile:
     supervisor: dict = field(default_factory=dict)
 
 
-def _section(loc: Located, name: str, keys: tuple[str, ...]) -> dict[str, Located]:
-    if not isinstance(loc.value, dict):
-        raise loc.error(f"{name}: expected a mapping of {', '.join(keys)}")
-    for key in loc.value:
-        if key not in keys:
-            raise loc.keys[key].error(f"{name + '.' if name else ''}{key}: unknown key; valid: {', '.join(keys)}")
+def _section(loc: Located, schema: dict, where: str) -> dict[str, Located]:
+    """The located fields of the section ``loc`` (``where``: its path with a dot), every key in
+    ``schema``; their values are checked with :func:`_checked`."""
+    check_value(loc, MAPPING, where.rstrip(".") or "the robot file")
+    check_keys(loc, schema, where)
     return loc.value
 
 
-def _number(loc: Located, name: str, positive: bool = False) -> float:
-    v = loc.value
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (positive and v <= 0):
-        raise loc.error(f"{name}: expected a {'positive' if positive else 'finite'} number, got {plain(v)!r}")
-    return float(v)
-
-
-def _text(loc: Located, name: str) -> str:
-    if not isinstance(loc.value, str) or not loc.value.strip():
-        raise loc.error(f"{name}: expected a non-empty string, got {plain(loc.value)!r}")
-    return loc.value.strip()
-
-
-def _numbers(loc: Located, name: str, length: int | None = None) -> tuple[float, ...]:
-    if not isinstance(loc.value, list) or (length is not None and len(loc.value) != length):
-        size = f"{length} " if length is not None else ""
-        raise loc.error(f"{name}: expected a list of {size}numbers, got {plain(loc.value)!r}")
-    return tuple(_number(v, f"{name}[{i}]") for i, v in enumerate(loc.value))
+def _checked(body: dict[str, Located], schema: dict, where: str) -> dict[str, Any]:
+    """The checked values of the fields present in ``body``; a string must not be empty."""
+    out = {}
+    for key, loc in body.items():
+        value = check_value(loc, schema[key], where + key)
+        if schema[key] == STR and not value.strip():
+            raise loc.error(f"{where}{key}: expected a non-empty string")
+        out[key] = value.strip() if schema[key] == STR else value
+    return out
 
 
 def _transform(loc: Located, name: str) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
-    body = _section(loc, name, ("xyz_m", "rpy_deg"))
-    xyz = _numbers(body["xyz_m"], f"{name}.xyz_m", 3) if "xyz_m" in body else (0.0, 0.0, 0.0)
-    rpy = _numbers(body["rpy_deg"], f"{name}.rpy_deg", 3) if "rpy_deg" in body else (0.0, 0.0, 0.0)
-    return make_pose(Rotation.from_euler("xyz", rpy, degrees=True), xyz)
+    body = _checked(_section(loc, _TRANSFORM, name + "."), _TRANSFORM, name + ".")
+    return make_pose(Rotation.from_euler("xyz", body.get("rpy_deg", (0.0, 0.0, 0.0)), degrees=True),
+                     body.get("xyz_m", (0.0, 0.0, 0.0)))
 
 
 def _ros2(loc: Located) -> Ros2Settings:
-    body = _section(loc, "ros2", _ROS2)
-    kw: dict[str, Any] = {}
-    for key in ("twist_topic", "base_frame", "pose_topic", "joint_state_topic", "node_name"):
-        if key in body:
-            kw[key] = _text(body[key], f"ros2.{key}")
-    if "network" in body:
-        if not isinstance(body["network"].value, bool):
-            raise body["network"].error(f"ros2.network: expected true or false, got {plain(body['network'].value)!r}")
-        kw["network"] = body["network"].value
+    body = _section(loc, _ROS2, "ros2.")
+    kw: dict[str, Any] = _checked({k: v for k, v in body.items() if k not in ("flange_to_pad", "joint_limits_rad")},
+                                  _ROS2, "ros2.")
     if "flange_to_pad" in body:
         kw["flange_to_pad"] = _transform(body["flange_to_pad"], "ros2.flange_to_pad")
     if "joint_limits_rad" in body:
-        limits = _section(body["joint_limits_rad"], "ros2.joint_limits_rad", ("lower", "upper"))
-        lower = _numbers(limits["lower"], "ros2.joint_limits_rad.lower") if "lower" in limits else ()
-        upper = _numbers(limits["upper"], "ros2.joint_limits_rad.upper") if "upper" in limits else ()
+        limits = _checked(_section(body["joint_limits_rad"], _LIMITS, "ros2.joint_limits_rad."), _LIMITS,
+                          "ros2.joint_limits_rad.")
+        lower, upper = ([check_value(v, NUMBER, f"ros2.joint_limits_rad.{side}[{i}]")
+                         for i, v in enumerate(body["joint_limits_rad"].value[side].value)] if side in limits else []
+                        for side in ("lower", "upper"))
         if len(lower) != len(upper) or any(lo >= hi for lo, hi in zip(lower, upper)):
             raise body["joint_limits_rad"].error("ros2.joint_limits_rad: lower and upper need the same length, "
                                                  "each lower below its upper")
-        kw["joint_lower_rad"], kw["joint_upper_rad"] = lower, upper
+        kw["joint_lower_rad"], kw["joint_upper_rad"] = tuple(lower), tuple(upper)
     return Ros2Settings(**kw)
 
 
@@ -155,34 +146,26 @@ def load_robot_file(path: str | Path) -> RobotFile:
         With file, line and column, for a syntax error, an unknown key or a bad value.
     """
     root = load_located(path)
-    body = _section(root, "", _TOP)
-    kw: dict[str, Any] = {"file": str(path)}
-    if "type" in body:
-        kind = _text(body["type"], "type")
-        if kind != "ros2":
-            raise body["type"].error(f"type: unknown robot type {kind!r}; valid: ros2")
-        kw["type"] = kind
-    if "rate_hz" in body:
-        kw["rate_hz"] = _number(body["rate_hz"], "rate_hz", positive=True)
+    body = _section(root, _TOP, "")
+    top = _checked({k: v for k, v in body.items() if k in ("type", "rate_hz")}, _TOP, "")
+    kw: dict[str, Any] = {"file": str(path), **top}
+    if kw.get("type", "ros2") != "ros2":
+        raise body["type"].error(f"type: unknown robot type {kw['type']!r}; valid: ros2")
     kw["ros2"] = _ros2(body["ros2"]) if "ros2" in body else Ros2Settings()
     if "sensor" in body:
-        sensor = _section(body["sensor"], "sensor", _SENSOR)
+        sensor = _checked(_section(body["sensor"], _SENSOR, "sensor."), _SENSOR, "sensor.")
         if "module" in sensor:
-            kw["module"] = _text(sensor["module"], "sensor.module")
+            kw["module"] = sensor["module"]
         if "calibration" in sensor:
-            file = Path(_text(sensor["calibration"], "sensor.calibration"))
+            file = Path(sensor["calibration"])
             file = file if file.is_absolute() else Path(path).resolve().parent / file
             if not file.is_file():
-                raise sensor["calibration"].error(f"sensor.calibration: file not found: {file}")
+                raise body["sensor"].value["calibration"].error(f"sensor.calibration: file not found: {file}")
             kw["calibration"] = file
     if "setup" in body:
-        setup = _section(body["setup"], "setup", _SETUP)
-        if "table_z_m" in setup:
-            kw["table_z_m"] = _number(setup["table_z_m"], "setup.table_z_m")
+        kw.update(_checked(_section(body["setup"], _SETUP, "setup."), _SETUP, "setup."))
     if "supervisor" in body:
-        sup = _section(body["supervisor"], "supervisor", _SUPERVISOR)
-        kw["supervisor"] = {k: (_numbers(v, f"supervisor.{k}", 3) if k.startswith("workspace")
-                                else _number(v, f"supervisor.{k}", positive=True)) for k, v in sup.items()}
+        kw["supervisor"] = check_fields(body["supervisor"], SUPERVISOR, "supervisor.")
     return RobotFile(**kw)
 
 

@@ -144,6 +144,12 @@ class SimObject:
         mesh = self.surface_mesh()
         return None if mesh is None else pv.wrap(mesh)
 
+    def centreline(self) -> tuple[np.ndarray, float] | None:
+        """``(points, radius)``: the ``(N, 3)`` world centreline (m) and radius (m) of an object
+        best drawn as a tube (a cable) in recordings; None (this default) for the others, drawn
+        by their :meth:`surface_mesh`."""
+        return None
+
     @property
     def identity_pose(self) -> bool:
         """True when the object frame is the world's (points are used as they are)."""
@@ -378,6 +384,9 @@ class Cable(SimObject):
         """``(N, 3)`` world points of the centreline (for views and metrics)."""
         local = self._centreline_local()
         return local if self._identity else local @ self._R.T + self._t
+
+    def centreline(self) -> tuple[np.ndarray, float]:
+        return self.centreline_world(), self.radius
 
     def view_surface(self, pv, extent: np.ndarray):
         """A tube around the centreline (every other point of it)."""

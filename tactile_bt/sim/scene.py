@@ -27,14 +27,14 @@ from tactile_bt.sim.objects import Cable, Table, object_pose
 from tactile_bt.sim.pad import SensorModel, SensorParams
 from tactile_bt.robot.mounts import MountSpec
 from tactile_bt.errors import MountError
-from tactile_bt.sim.schema import (ANGLE_DEG, COORD, INT, LIST, MAPPING, NONNEGATIVE, STR, ListOf,
+from tactile_bt.sim.schema import (check_fields as _fields, check_value as _check,
+                                   ANGLE_DEG, COORD, INT, LIST, MAPPING, NONNEGATIVE, STR, ListOf,
                                    Range)
 from tactile_bt.sim.region import check_region
 from tactile_bt.sim.registry import ObjectSource, ShapeValueError, shape_class, shape_names
 from tactile_bt.sim.world import World
 from tactile_bt.yamlutil import Located, load_located, parse_value, plain
-from tactile_bt.errors import ParameterTypeError, SceneError, YamlError
-from tactile_bt.units import parse_quantity
+from tactile_bt.errors import SceneError, YamlError
 
 __all__ = ["Scene", "load_scene", "apply_overrides", "check_seed"]
 
@@ -121,60 +121,6 @@ COMMON_OBJECT_FIELDS = {"type": STR, "position": ListOf(3, COORD), "rpy_deg": Li
                         "stiffness": Range(0.0, lo_open=True, unit="N/m"), "friction": NONNEGATIVE}
 EVENT = {"at_s": Range(0.0, unit="s"), "object": INT, "translate": ListOf(3, COORD),
          "rotate_deg": ListOf(3, ANGLE_DEG)}
-
-
-def _check(value: Located, kind: Any, field_name: str) -> Any:
-    """The value of ``value`` if it is of ``kind`` (see :mod:`tactile_bt.sim.schema`), else a
-    :class:`SceneError` naming the field, the file and the line."""
-    v = value.value
-    if isinstance(kind, Range):
-        if isinstance(v, str) and not kind.integer:
-            v = _quantity(value, kind, field_name)
-        if isinstance(v, float) and not np.isfinite(v):
-            raise value.error(f"{field_name}: expected a finite number, got {v!r}")
-        if not kind.accepts(v):
-            raise value.error(f"{field_name}: expected {kind}, got {plain(value.value)!r}")
-        return int(v) if kind.integer else float(v)
-    if isinstance(kind, ListOf):
-        if not isinstance(v, list) or len(v) != kind.n:
-            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
-        return [_check(x, kind.item, f"{field_name}[{i}]") for i, x in enumerate(v)]
-    if kind == STR:
-        if not isinstance(v, str):
-            raise value.error(f"{field_name}: expected a string, got {plain(v)!r}")
-        return v
-    if kind == MAPPING:
-        if not isinstance(v, dict):
-            raise value.error(f"{field_name}: expected a mapping")
-        return v
-    if kind == LIST:
-        if not isinstance(v, list):
-            raise value.error(f"{field_name}: expected a list")
-        return v
-    raise AssertionError(kind)
-
-
-def _quantity(value: Located, kind: Range, field_name: str) -> float:
-    """A number written with a unit (``radius: 3 mm``), in the field's SI unit; the same parser
-    as the tree's parameters (:func:`tactile_bt.units.parse_quantity`)."""
-    try:
-        return parse_quantity(value.value, kind.unit or None)
-    except ParameterTypeError as exc:
-        raise value.error(f"{field_name}: {exc}") from None
-
-
-def _fields(section: Located, schema: dict, where_: str) -> dict:
-    from difflib import get_close_matches
-
-    out = {}
-    for key, value in section.value.items():
-        if key not in schema:
-            hint = get_close_matches(key, list(schema), n=1)
-            loc = section.keys[key]
-            raise loc.error(f"unknown field {where_}{key!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
-                            + f"; valid fields: {', '.join(sorted(schema))}")
-        out[key] = _check(value, schema[key], where_ + key)
-    return out
 
 
 @dataclass

@@ -3,7 +3,8 @@
 A kind is a string for non-numeric values (``"string"``, ``"mapping"``, ``"list"``), a
 :class:`Range` for numbers and integers (finite, within bounds, in the range's SI unit; a number
 may be written with a unit: ``3 mm``), or a :class:`ListOf` for fixed-length lists. ``str(kind)`` is the phrase used in error messages
-(``expected an integer from 1 to 128``) and in ``sim/README.md``.
+(``expected an integer from 1 to 128``) and in ``sim/README.md``. :func:`check_value` and
+:func:`check_fields` check located YAML values against kinds (the scene, the robot file).
 
 Layer: sim.
 """
@@ -14,10 +15,17 @@ from dataclasses import dataclass
 import math
 from typing import Any
 
+import numpy as np
+
+from tactile_bt.errors import ParameterTypeError
+from tactile_bt.units import parse_quantity
+from tactile_bt.yamlutil import Located, plain
+
 __all__ = ["Range", "ListOf", "STR", "MAPPING", "LIST", "NUMBER", "POSITIVE", "NONNEGATIVE", "INT",
-           "COORD", "LENGTH", "ANGLE_DEG", "MAX_COORD_M"]
+           "COORD", "LENGTH", "ANGLE_DEG", "MAX_COORD_M", "check_value", "check_fields", "check_keys", "BOOL"]
 
 STR = "string"
+BOOL = "boolean"
 MAPPING = "mapping"
 LIST = "list"
 
@@ -98,3 +106,67 @@ COORD = Range(-MAX_COORD_M, MAX_COORD_M, unit="m")
 ANGLE_DEG = Range(unit="deg")
 #: Sizes of objects (radius, length, edges): positive, at most ``MAX_COORD_M``.
 LENGTH = Range(0.0, MAX_COORD_M, lo_open=True, unit="m")
+
+
+def check_value(value: Located, kind: Any, field_name: str) -> Any:
+    """The value of ``value`` if it is of ``kind`` (see :mod:`tactile_bt.sim.schema`), else a
+    :class:`~tactile_bt.errors.YamlError` naming the field, the file and the line."""
+    v = value.value
+    if isinstance(kind, Range):
+        if isinstance(v, str) and not kind.integer:
+            v = _quantity(value, kind, field_name)
+        if isinstance(v, float) and not np.isfinite(v):
+            raise value.error(f"{field_name}: expected a finite number, got {v!r}")
+        if not kind.accepts(v):
+            raise value.error(f"{field_name}: expected {kind}, got {plain(value.value)!r}")
+        return int(v) if kind.integer else float(v)
+    if isinstance(kind, ListOf):
+        if not isinstance(v, list) or len(v) != kind.n:
+            raise value.error(f"{field_name}: expected {kind}, got {plain(v)!r}")
+        return [check_value(x, kind.item, f"{field_name}[{i}]") for i, x in enumerate(v)]
+    if kind == STR:
+        if not isinstance(v, str):
+            raise value.error(f"{field_name}: expected a string, got {plain(v)!r}")
+        return v
+    if kind == BOOL:
+        if not isinstance(v, bool):
+            raise value.error(f"{field_name}: expected true or false, got {plain(v)!r}")
+        return v
+    if kind == MAPPING:
+        if not isinstance(v, dict):
+            raise value.error(f"{field_name}: expected a mapping")
+        return v
+    if kind == LIST:
+        if not isinstance(v, list):
+            raise value.error(f"{field_name}: expected a list")
+        return v
+    raise AssertionError(kind)
+
+
+def _quantity(value: Located, kind: Range, field_name: str) -> float:
+    """A number written with a unit (``radius: 3 mm``), in the field's SI unit; the same parser
+    as the tree's parameters (:func:`tactile_bt.units.parse_quantity`)."""
+    try:
+        return parse_quantity(value.value, kind.unit or None)
+    except ParameterTypeError as exc:
+        raise value.error(f"{field_name}: {exc}") from None
+
+
+def check_keys(section: Located, names, where_: str) -> None:
+    """An error for the first key of the mapping ``section`` that is not in ``names``, naming the
+    closest valid one (``where_``: the section's path, prefixed to the field names)."""
+    from difflib import get_close_matches
+
+    for key in section.value:
+        if key not in names:
+            hint = get_close_matches(key, list(names), n=1)
+            raise section.keys[key].error(f"unknown field {where_ + key!r}" + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                                          + f"; valid fields: {', '.join(sorted(names))}")
+
+
+def check_fields(section: Located, schema: dict, where_: str) -> dict:
+    """The checked values of the mapping ``section`` (field -> value), every key in ``schema``
+    (field -> kind); an unknown key is an error that names the closest valid one. ``where_`` is
+    the section's path, prefixed to the field names in messages (``"supervisor."``)."""
+    check_keys(section, schema, where_)
+    return {key: check_value(value, schema[key], where_ + key) for key, value in section.value.items()}

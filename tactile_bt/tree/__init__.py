@@ -7,9 +7,12 @@ The leaf author's API is public here and stable (``from tactile_bt.tree import .
   :class:`ServoLeaf`, the base of a PID servo primitive;
 - :func:`register_node`, which makes a class a YAML node type (installed packages use the
   entry-point group ``tactile_bt.behaviours`` instead, :data:`ENTRY_POINT_GROUP`);
-- :class:`Bound` and the usual bounds :data:`POSITIVE`, :data:`NON_NEGATIVE`, :data:`FINITE`,
-  :data:`POSITIVE_OR_INF` for ``parameter_bounds``; units follow from a parameter's name suffix
-  (:data:`UNITS`: ``_pa`` Pa, ``_m`` m, ``_s`` s, ``_n`` N, ``_mps`` m/s, ``_rad`` rad, ``_rps`` rad/s);
+- :class:`Parameter`, the one declaration of a node parameter (a class attribute: default,
+  type, unit, bound, doc), with :class:`Bound`, :func:`between` and the usual bounds
+  :data:`POSITIVE`, :data:`NON_NEGATIVE`, :data:`FINITE`, :data:`POSITIVE_OR_INF`; a unit not
+  declared follows from the name's suffix (:data:`UNITS`: ``_pa`` Pa, ``_m`` m, ``_s`` s,
+  ``_n`` N, ``_mps`` m/s, ``_rad`` rad, ``_rps`` rad/s); :class:`TactileDecorator`, the base
+  of a decorator with declared parameters;
 - :func:`load_tree`.
 
 docs/writing_leaves.md shows a complete leaf, its tests on :mod:`tactile_bt.testing` and its
@@ -22,12 +25,15 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["TactileBehaviour", "ServoLeaf", "register_node", "ENTRY_POINT_GROUP", "Bound", "POSITIVE",
-           "NON_NEGATIVE", "FINITE", "POSITIVE_OR_INF", "UNITS", "load_tree"]
+__all__ = ["TactileBehaviour", "TactileDecorator", "ServoLeaf", "Parameter", "register_node", "ENTRY_POINT_GROUP",
+           "Bound", "between", "POSITIVE", "NON_NEGATIVE", "FINITE", "POSITIVE_OR_INF", "UNITS", "load_tree"]
 
 _WHERE = {
     "TactileBehaviour": "tactile_bt.tree.behaviours.base",
+    "TactileDecorator": "tactile_bt.tree.behaviours.base",
     "ServoLeaf": "tactile_bt.tree.behaviours.base",
+    "Parameter": "tactile_bt.tree.declaration",
+    "between": "tactile_bt.tree.parameters",
     "register_node": "tactile_bt.tree.registry",
     "ENTRY_POINT_GROUP": "tactile_bt.tree.registry",
     "Bound": "tactile_bt.tree.parameters",

@@ -23,10 +23,11 @@ key, its type, whose value holds the parameters::
 Composites: ``sequence`` and ``selector`` (``memory``, default true), ``parallel``
 (``policy``: ``success_on_all`` | ``success_on_one``, ``synchronise``). Decorators take their
 child under ``child``: ``mission_timeout`` (mission clock), ``retry``, ``repeat``, ``inverter``,
-``oneshot``. Leaves take the keyword arguments of their classes in :mod:`tactile_bt.tree.behaviours`,
-checked against the type hints and ranges (``parameter_bounds``: finite numbers, with the sign
-physics demands) before anything is built. Numbers for parameters with a unit in their name also
-take a unit (``target_pa: 2 kPa``, ``target_rad: 90 deg``); a quoted number is a number. A
+``oneshot``. Leaves take the parameters their classes in :mod:`tactile_bt.tree.behaviours`
+declare (:class:`~tactile_bt.tree.declaration.Parameter`), checked against the declared types and
+ranges (finite numbers, with the sign physics demands) before anything is built. Numbers for
+parameters with a unit also take a unit (``target_pa: 2 kPa``, ``target_rad: 90 deg``); a
+quoted number is a number. A
 parameter value ``{blackboard: /key}`` or ``"@/key"`` is read from the blackboard each time the
 node starts.
 

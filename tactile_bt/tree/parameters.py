@@ -1,18 +1,17 @@
-"""Typed leaf parameters: units from their names, value checks, documentation and blackboard
-references.
+"""Typed node parameters: units, value checks, conversions and blackboard references.
 
-The parameters of a node are the keyword arguments of its class's ``__init__``; their types
-come from the type hints and their units from the name's suffix (``target_pa``, ``speed_mps``,
-``grace_s``). Their admissible ranges come from the class's ``parameter_bounds`` (a
-:class:`Bound` per parameter: ``POSITIVE``, ``NON_NEGATIVE``, ``between(0, 1)``, ...), merged
-over the class's bases; a number without a declared bound must still be finite. The YAML
-loader, blackboard references and the construction of a node in Python
-(:class:`BoundedParameters`) use the same checks, so a value is judged the same way wherever it
-comes from.
+A node class declares each parameter once (:class:`~tactile_bt.tree.declaration.Parameter`);
+this module holds what judges a value against such a declaration: the admissible ranges
+(:class:`Bound`: ``POSITIVE``, ``NON_NEGATIVE``, ``between(0, 1)``, ...; a number without a
+declared bound must still be finite), the units (:data:`UNITS`, the name suffixes that give a
+parameter its unit unless it declares one) and the conversion of values written with a unit
+(:func:`convert_parameter`). The YAML loader, blackboard references, ``--param`` and the
+construction of a node in Python use the same checks, so a value is judged the same way
+wherever it comes from.
 
 A blackboard reference makes a parameter follow a blackboard key: the key is read when the node
-is *initialised* (each time it starts), never on every tick, so references cost nothing on the
-control cycle's hot path. See :func:`bind_blackboard`.
+starts (each time, just before its ``initialise``), never on every tick, so references cost
+nothing on the control cycle's hot path. See :func:`bind_blackboard`.
 
 Lengths may be given in tactels of the pad (``px``, ``tactel``, :data:`PAD_UNITS`): they are
 converted with the pitch of a :class:`~tactile_bt.sense.geometry.PadGeometry` (``pad=`` of
@@ -24,7 +23,6 @@ Layer: tree.
 
 from __future__ import annotations
 
-import functools
 import inspect
 import math
 import numbers
@@ -58,22 +56,21 @@ __all__ = [
     "NON_NEGATIVE",
     "POSITIVE_OR_INF",
     "between",
-    "bounds_of",
     "check_bound",
-    "BoundedParameters",
     "ParameterInfo",
-    "unit_of",
+    "node_label",
     "parse_quantity",
     "convert_parameter",
     "describe_type",
     "parameters_of",
     "normalise_key",
     "bind_blackboard",
+    "resolve_references",
     "blackboard_references",
 ]
 
 #: Name suffix → SI unit: a parameter named ``*_pa`` is in Pa, ``*_mps`` in m/s, and so on.
-#: Classes name the units of other parameters in ``parameter_units`` (e.g. ``band``).
+#: A declaration names the unit of other parameters (``Parameter(..., unit="1/s")``).
 UNITS: dict[str, str] = {"_pa": "Pa", "_mps": "m/s", "_rps": "rad/s", "_rad": "rad", "_m": "m", "_s": "s", "_n": "N"}
 
 
@@ -160,15 +157,6 @@ def between(low: float, high: float, low_open: bool = False, high_open: bool = F
     return Bound(float(low), float(high), low_open, high_open, note=note)
 
 
-def bounds_of(cls) -> dict[str, Bound]:
-    """The declared bounds of a node class: ``parameter_bounds`` merged over its bases (the most
-    derived class wins)."""
-    out: dict[str, Bound] = {}
-    for klass in reversed(getattr(cls, "__mro__", ())):
-        out.update(klass.__dict__.get("parameter_bounds", {}))
-    return out
-
-
 def _with_unit(x: Any, unit: str | None) -> str:
     text = repr(float(x)) if isinstance(x, float) or not isinstance(x, numbers.Integral) else repr(int(x))
     return f"{text} {unit}" if unit else text
@@ -206,93 +194,11 @@ def _is_float_like(annotation: Any) -> bool:
     return annotation is float or describe_type(annotation) == "list[float]"
 
 
-def _bound_for(cls, name: str, annotation: Any) -> Bound | None:
-    declared = bounds_of(cls).get(name) if cls is not None else None
-    if declared is not None:
-        return declared
-    return FINITE if _is_float_like(annotation) else None
-
-
-class BoundedParameters:
-    """Mixin of the node classes: a node built in Python gets the bound checks of the loader.
-
-    Each subclass's ``__init__`` is wrapped so that, when it is the instance's own ``__init__``
-    (the most derived one), the numbers passed to it are checked against the class's
-    ``parameter_bounds`` (and float parameters for finiteness) before it runs, raising
-    :class:`ParameterValueError` (a ValueError) such as
-    ``force_hold 'hold': target_pa must be > 0 (got -2000.0 Pa)``. Defaults are not checked
-    here (a test checks those of every registered class).
-    """
-
-    parameter_bounds: dict[str, Bound] = {}
-
-    def __init_subclass__(cls, **kwargs) -> None:
-        super().__init_subclass__(**kwargs)
-        init = cls.__dict__.get("__init__")
-        if init is None or getattr(init, "_checks_bounds", False):
-            return
-
-        @functools.wraps(init)
-        def __init__(self, *args, **kw):
-            if type(self).__init__ is __init__:
-                _check_arguments(type(self), init, self, args, kw)
-            init(self, *args, **kw)
-
-        __init__._checks_bounds = True  # type: ignore[attr-defined]
-        cls.__init__ = __init__  # type: ignore[method-assign]
-
-
-@functools.lru_cache(maxsize=None)
-def _specs(cls) -> dict[str, tuple[Bound, str | None]]:
-    """Parameter → (bound, unit) of the numbers a class checks at construction (none when its
-    type hints cannot be read, e.g. names imported only for type checkers)."""
-    out = {}
-    try:
-        params = parameters_of(cls)
-    except Exception:  # noqa: BLE001 - a leaf written for Python only must still build
-        return out
-    for p in params:
-        if p.bound is not None:
-            out[p.name] = (p.bound, p.unit)
-    return out
-
-
 def node_label(cls, name: Any) -> str:
     """``force_hold 'hold'``: the YAML type of a node class (its class name when it is not
     registered) and the node's name, for messages."""
     type_name = vars(cls).get("node_type", cls.__name__)  # set when the class is registered
     return f"{type_name} {str(name)!r}" if name is not None else type_name
-
-
-def _check_arguments(cls, init, self, args, kwargs) -> None:
-    try:
-        bound_args = inspect.signature(init).bind(self, *args, **kwargs)
-    except TypeError:
-        return  # the call itself raises the right error
-    specs = _specs(cls)
-    for name, value in bound_args.arguments.items():
-        if name in specs:
-            bound, unit = specs[name]
-            try:
-                check_bound(name, value, bound, unit)
-            except ParameterValueError as exc:
-                node = bound_args.arguments.get("name")
-                if node is None:
-                    default = inspect.signature(init).parameters.get("name")
-                    node = default.default if default is not None and default.default is not inspect.Parameter.empty else None
-                raise ParameterValueError(exc.parameter, exc.detail, exc.index, node_label(cls, node)) from None
-
-
-def unit_of(name: str, cls: type | None = None) -> str | None:
-    """Unit of a parameter: from ``cls.parameter_units`` when it names one, else from the
-    name's suffix (``target_pa`` → ``"Pa"``); None for plain numbers."""
-    declared = getattr(cls, "parameter_units", {}) if cls is not None else {}
-    if name in declared:
-        return declared[name]
-    for suffix, unit in UNITS.items():
-        if name.endswith(suffix):
-            return unit
-    return None
 
 
 def accepted_units(unit: str | None, pad: PadGeometry | None = None) -> dict[str, float] | None:
@@ -412,6 +318,7 @@ class ParameterInfo:
     unit: str | None
     doc: str
     bound: Bound | None = None  # admissible numbers (None: not a number, or no check)
+    fixed: bool = False  # set when the node is built (no blackboard reference)
 
     @property
     def required(self) -> bool:
@@ -422,57 +329,15 @@ class ParameterInfo:
         return describe_type(self.annotation)
 
 
-_ENTRY = re.compile(r"^([A-Za-z_]\w*(?:\s*,\s*[A-Za-z_]\w*)*)\s*(?::.*)?$")
-
-
-def _docstring_parameters(cls) -> dict[str, str]:
-    """Descriptions from the numpydoc ``Parameters`` sections of ``cls`` and its bases (the
-    most derived class's text wins)."""
-    docs: dict[str, str] = {}
-    for klass in reversed(cls.__mro__):
-        lines = inspect.cleandoc(klass.__dict__.get("__doc__") or "").splitlines()
-        start = next((i + 2 for i in range(len(lines) - 1)
-                      if lines[i].strip() == "Parameters" and set(lines[i + 1].strip()) == {"-"}), None)
-        if start is None:
-            continue
-        names: list[str] = []
-        text: list[str] = []
-
-        def flush() -> None:
-            for n in names:
-                docs[n] = " ".join(text)
-
-        for i in range(start, len(lines)):
-            line = lines[i]
-            following = lines[i + 1].strip() if i + 1 < len(lines) else ""
-            if line.strip() and following and set(following) == {"-"}:
-                break  # the next section
-            entry = _ENTRY.match(line) if line and not line[0].isspace() else None
-            if entry:
-                flush()
-                names = [n.strip() for n in entry.group(1).split(",")]
-                text = []
-            elif line and not line[0].isspace():
-                break  # prose after the section
-            elif line.strip() and names:
-                text.append(line.strip())
-        flush()
-    return docs
-
-
-def parameters_of(cls) -> list[ParameterInfo]:
-    """The YAML parameters of a node class: its ``__init__`` keywords except ``self`` and
-    ``child``, with type hints, defaults, units and the docstring's description."""
-    hints = typing.get_type_hints(cls.__init__)
-    docs = _docstring_parameters(cls)
-    out = []
-    for name, p in inspect.signature(cls.__init__).parameters.items():
-        if name in ("self", "child") or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        annotation = hints.get(name, Any)
-        out.append(ParameterInfo(name, annotation, p.default, unit_of(name, cls), docs.get(name, ""),
-                                 _bound_for(cls, name, annotation)))
-    return out
+def parameters_of(cls) -> list:
+    """The declared parameters of a node class (:class:`~tactile_bt.tree.declaration.Parameter`
+    s, ``name`` first); TypeError for a class that declares none (not a
+    :class:`~tactile_bt.tree.declaration.Parameterised`)."""
+    params = getattr(cls, "parameters", None)
+    if not isinstance(params, dict):
+        raise TypeError(f"{getattr(cls, '__name__', cls)!r} declares no parameters: derive it from TactileBehaviour "
+                        "(or Parameterised) and declare each parameter as a class attribute Parameter(...)")
+    return list(params.values())
 
 
 # ------------------------------------------------------------------------------ blackboard references
@@ -499,21 +364,21 @@ def blackboard_references(behaviour: py_trees.behaviour.Behaviour) -> dict[str, 
 def bind_blackboard(behaviour: py_trees.behaviour.Behaviour, parameter: str, key: str, origin: str = "") -> None:
     """Make ``parameter`` of ``behaviour`` follow the blackboard ``key``.
 
-    The key is read each time the behaviour starts (``initialise``), checked against the
-    parameter's type and applied with ``behaviour.set_parameter`` (or ``setattr``); a length
-    in tactels (``"0.5 px"``) is converted with the pad on the blackboard (``/tactile/pad``). A missing key
-    or a bad value raises :class:`BlackboardReferenceError` naming ``origin`` (the tree file,
-    line and column of the reference), the parameter and the key. Nothing is added to the tick.
+    The key is read each time the behaviour starts (:func:`resolve_references`, which the
+    node's tick calls just before ``initialise``), checked against the parameter's declaration
+    and applied with ``behaviour.set_parameter``; a length in tactels (``"0.5 px"``) is
+    converted with the pad on the blackboard (``/tactile/pad``). A missing key or a bad value
+    raises :class:`BlackboardReferenceError` naming ``origin`` (the tree file, line and column
+    of the reference), the parameter and the key. Nothing is added to the tick of a running node.
 
-    Works for any behaviour class whose ``__init__`` has the parameter; the loader calls it for
+    Works for any node class that declares the parameter; the loader calls it for
     ``{blackboard: /key}`` and ``"@/key"`` values.
     """
     key = normalise_key(key)
     params = {p.name: p for p in parameters_of(type(behaviour))}
     if parameter not in params:
         raise ValueError(f"{behaviour.name}: no parameter {parameter!r} to bind to {key!r}")
-    fixed = getattr(behaviour, "fixed_parameters", frozenset({"name"}))
-    if parameter in fixed:
+    if params[parameter].fixed:
         raise ValueError(f"{behaviour.name}: parameter {parameter!r} is fixed at construction; "
                          "it cannot come from the blackboard")
     refs = behaviour.__dict__.get("_blackboard_parameters")
@@ -522,22 +387,23 @@ def bind_blackboard(behaviour: py_trees.behaviour.Behaviour, parameter: str, key
         behaviour._blackboard_parameters = refs  # type: ignore[attr-defined]
         client = behaviour.attach_blackboard_client(name=f"{behaviour.name}/parameters")
         behaviour._parameter_client = client  # type: ignore[attr-defined]
-        original = behaviour.initialise
-
-        def initialise() -> None:
-            _resolve(behaviour, params)
-            original()
-
-        initialise.__doc__ = original.__doc__
-        behaviour.initialise = initialise  # type: ignore[method-assign]
     behaviour._parameter_client.register_key(key=key, access=Access.READ)  # type: ignore[attr-defined]
     refs[parameter] = (key, origin)
 
 
-def _resolve(behaviour, params: dict[str, ParameterInfo]) -> None:
-    client = behaviour._parameter_client
+def resolve_references(behaviour: py_trees.behaviour.Behaviour) -> None:
+    """Read the blackboard keys ``behaviour``'s parameters follow (:func:`bind_blackboard`) and
+    set them; nothing for a node without references. The ticks of the nodes
+    (:class:`~tactile_bt.tree.ticking.DirectDecorator`,
+    :class:`~tactile_bt.tree.behaviours.base.TactileBehaviour`) call it when the node starts,
+    before its ``initialise``."""
+    refs = behaviour.__dict__.get("_blackboard_parameters")
+    if not refs:
+        return
+    client = behaviour._parameter_client  # type: ignore[attr-defined]
+    params = {p.name: p for p in parameters_of(type(behaviour))}
     pad = current_pad()
-    for parameter, (key, origin) in behaviour._blackboard_parameters.items():
+    for parameter, (key, origin) in refs.items():
         prefix = f"{origin}: " if origin else ""
         field = f"{behaviour.name}.{parameter}"
         if not client.exists(key):
@@ -548,10 +414,6 @@ def _resolve(behaviour, params: dict[str, ParameterInfo]) -> None:
         try:
             info = params[parameter]
             value = convert_parameter(value, info.annotation, info.unit, info.bound, parameter, pad)
-            setter = getattr(behaviour, "set_parameter", None)
-            if setter is not None:
-                setter(parameter, value)
-            else:
-                setattr(behaviour, parameter, value)
+            behaviour.set_parameter(parameter, value)  # type: ignore[attr-defined]
         except (ParameterTypeError, ValueError) as exc:
             raise BlackboardReferenceError(f"{prefix}{field}: bad value from blackboard key {key!r}: {exc}") from None

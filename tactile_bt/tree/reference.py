@@ -1,8 +1,8 @@
 """The node reference of docs/trees.md, generated from the node registry.
 
 :func:`describe_nodes` lists every YAML node type with its parameters, types, units, ranges,
-defaults and meanings, taken from :data:`tactile_bt.tree.registry.COMPOSITES` and from the signatures and
-docstrings of the behaviour classes; :func:`reference_markdown` renders that as Markdown tables
+defaults and meanings, taken from :data:`tactile_bt.tree.registry.COMPOSITES` and from the parameter
+declarations of the behaviour classes (:class:`~tactile_bt.tree.declaration.Parameter`); :func:`reference_markdown` renders that as Markdown tables
 and :func:`update_reference` rewrites the generated part of a Markdown file.  All of them are
 re-exported by :mod:`tactile_bt.tree.loader`; regenerate the reference with
 ``python -m tactile_bt.tree.reference docs/trees.md``.
@@ -54,7 +54,7 @@ def _summary(cls) -> str:
 
 def describe_nodes() -> dict[str, NodeDoc]:
     """Every YAML node type with its parameters, types, units and defaults, from the registry
-    and the classes' signatures and docstrings (docs/trees.md is generated from this)."""
+    and the classes' parameter declarations (docs/trees.md is generated from this)."""
     out: dict[str, NodeDoc] = {}
     for name, params in COMPOSITES.items():
         cls = {"sequence": py_trees.composites.Sequence, "selector": py_trees.composites.Selector,

@@ -24,6 +24,7 @@ import py_trees
 
 from tactile_bt.errors import PluginError
 from tactile_bt.tree.behaviours import DECORATORS, LEAVES
+from tactile_bt.tree.declaration import is_parameterised, undeclared_arguments
 from tactile_bt.tree.parameters import ParameterInfo
 from tactile_bt.units import format_value
 
@@ -99,9 +100,11 @@ _ADDED_BY: dict[str, str] = {}
 def register_node(type_name: str, cls: type, decorator: bool | None = None, origin: str | None = None) -> None:
     """Make a behaviour class of your own a YAML node type.
 
-    Its parameters are the keyword arguments of ``cls.__init__`` with type hints (``float``,
-    ``int``, ``bool``, ``str``, ``Literal[...]``, ``Sequence[float]``) and defaults, exactly as
-    for the built-in leaves; a decorator class takes its child as the first argument ``child``.
+    Its parameters are its :class:`~tactile_bt.tree.declaration.Parameter` declarations
+    (``float``, ``int``, ``bool``, ``str``, ``Literal[...]``, ``Sequence[float]``, with
+    defaults, units and bounds), exactly as for the built-in leaves; a decorator class
+    (:class:`~tactile_bt.tree.behaviours.base.TactileDecorator`) takes its child as the first
+    argument ``child``.
 
     Parameters
     ----------
@@ -120,7 +123,7 @@ def register_node(type_name: str, cls: type, decorator: bool | None = None, orig
     ------
     PluginError
         When ``type_name`` is taken (the message names both classes), not an identifier, or
-        ``cls`` is not a behaviour class.
+        ``cls`` is not a behaviour class that declares its parameters.
     """
     here = origin or _origin(cls)
     if not isinstance(type_name, str) or not IDENTIFIER.match(type_name):
@@ -136,6 +139,13 @@ def register_node(type_name: str, cls: type, decorator: bool | None = None, orig
                           "rename one of them")
     if not (isinstance(cls, type) and issubclass(cls, py_trees.behaviour.Behaviour)):
         raise PluginError(f"{here}: {cls!r} is not a py_trees behaviour class")
+    if not is_parameterised(cls):
+        raise PluginError(f"{here}: {cls.__name__} declares no parameters: derive it from TactileBehaviour (or "
+                          "TactileDecorator) and declare each parameter as a class attribute Parameter(...)")
+    undeclared = undeclared_arguments(cls)
+    if undeclared:
+        raise PluginError(f"{here}: {', '.join(undeclared)} takes a value no Parameter declares: declare each "
+                          "parameter as a class attribute Parameter(...) (docs/writing_leaves.md)")
     if decorator is None:
         decorator = issubclass(cls, py_trees.decorators.Decorator)
     (DECORATORS if decorator else LEAVES)[type_name] = cls

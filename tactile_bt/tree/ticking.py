@@ -22,6 +22,8 @@ import py_trees
 from py_trees.common import Status
 from py_trees.logging import Level
 
+from tactile_bt.tree.parameters import resolve_references
+
 __all__ = ["tick_node", "debug_logging", "checked", "DirectDecorator", "STATUSES"]
 
 #: The statuses a node may return (py_trees builds this list on every tick).
@@ -60,6 +62,8 @@ class DirectDecorator:
     debug message formatted every tick while py_trees' debug log is off, and ``tick_direct()``."""
 
     def tick(self):
+        if self.status != _RUNNING:
+            resolve_references(self)
         if debug_logging():
             yield from super().tick()
             return
@@ -71,6 +75,7 @@ class DirectDecorator:
 
     def tick_direct(self) -> None:
         if self.status != _RUNNING:
+            resolve_references(self)
             self.initialise()
         tick_node(self.decorated)
         self._conclude()

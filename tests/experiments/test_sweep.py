@@ -236,7 +236,7 @@ BAD_SPECS = [
     (f"tree: {REPO}/trees/force_hold.yaml\nscene: {REPO}/sim/pen.yaml\nseeds: [0]\ntimeout_s: .nan\n", 4,
      "timeout_s: expected a finite number > 0"),
     (f"tree: {REPO}/trees/force_hold.yaml\nscene: {REPO}/sim/pen.yaml\nseeds: [0]\ngrid:\n"
-     "  objects.0.stiffnes: [1.0e4]\n", 5, "unknown field objects.0.'stiffnes' (did you mean 'stiffness'?)"),
+     "  objects.0.stiffnes: [1.0e4]\n", 5, "unknown field 'objects.0.stiffnes' (did you mean 'stiffness'?)"),
     (f"tree: {REPO}/trees/force_hold.yaml\nscene: {REPO}/sim/pen.yaml\nseeds: [0]\ngrid:\n"
      "  objects.0.stiffness: [1.0e4, -1]\n", 5, "objects.0.stiffness=-1"),
     (f"tree: {REPO}/trees/force_hold.yaml\nscene: {REPO}/sim/pen.yaml\nseeds: [0]\ngrid:\n"

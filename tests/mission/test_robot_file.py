@@ -35,7 +35,7 @@ def test_a_robot_file_reads_with_its_defaults(tmp_path):
 @pytest.mark.parametrize("text, where, message", [
     ("type: ur5\n", "1:7", "unknown robot type 'ur5'; valid: ros2"),
     ("rate_hz: -5\n", "1:10", "rate_hz: expected a positive number"),
-    ("ros2:\n  twist_topc: /x\n", "2:3", "ros2.twist_topc: unknown key; valid: twist_topic"),
+    ("ros2:\n  twist_topc: /x\n", "2:3", "unknown field 'ros2.twist_topc' (did you mean 'twist_topic'?)"),
     ("ros2:\n  network: yes please\n", "2:12", "ros2.network: expected true or false"),
     ("sensor:\n  calibration: missing.npz\n", "2:16", "sensor.calibration: file not found"),
     ("supervisor:\n  workspace_min_m: [0, 0]\n", "2:20", "supervisor.workspace_min_m: expected a list of 3 numbers"),

@@ -61,7 +61,7 @@ def test_events_load_in_file_order(tmp_path):
 @pytest.mark.parametrize(
     "old,new,line,fragments",
     [
-        ("  - at_s: 0.5", "  - at: 0.5", 16, ["events.0.'at'", "did you mean 'at_s'"]),
+        ("  - at_s: 0.5", "  - at: 0.5", 16, ["'events.0.at'", "did you mean 'at_s'"]),
         ("  - at_s: 0.5", "  - at_s: -0.5", 16, ["events.0.at_s", "non-negative"]),
         ("  - at_s: 0.5", "  - at_s: soon", 16, ["events.0.at_s", "number", "soon"]),
         ("    object: 0", "    object: 2", 17, ["events.0.object", "no object 2", "0 to 1"]),

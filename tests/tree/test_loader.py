@@ -950,23 +950,15 @@ def test_register_a_leaf_of_your_own(node_registry):
     from typing import Literal
 
     from tactile_bt.tree.behaviours import TactileBehaviour
+    from tactile_bt.tree.declaration import Parameter
     from tactile_bt.tree.reference import describe_nodes
     from tactile_bt.tree.registry import register_node
 
     class Tap(TactileBehaviour):
-        """Succeed on a tap.
+        """Succeed on a tap."""
 
-        Parameters
-        ----------
-        force_n : float
-            Force that counts as a tap.
-        mode : str
-            How to count.
-        """
-
-        def __init__(self, name: str = "tap", force_n: float = 1.0, mode: Literal["any", "all"] = "any") -> None:
-            super().__init__(name)
-            self.force_n, self.mode = force_n, mode
+        force_n = Parameter(1.0, doc="Force that counts as a tap.")
+        mode = Parameter("any", type=Literal["any", "all"], doc="How to count.")
 
         def update(self):
             return Status.SUCCESS if self.features_raw.force > self.force_n else Status.RUNNING

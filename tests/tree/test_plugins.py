@@ -14,23 +14,14 @@ from tactile_bt.tree.loader import load_tree
 
 LEAF = '''
 from py_trees.common import Status
-from tactile_bt.tree import POSITIVE, TactileBehaviour
+from tactile_bt.tree import POSITIVE, Parameter, TactileBehaviour
 
 
 class Wait(TactileBehaviour):
-    """Succeed after ``hold_s`` of mission time.
+    """Succeed after ``hold_s`` of mission time."""
 
-    Parameters
-    ----------
-    hold_s : float
-        How long to wait (s).
-    """
-
-    parameter_bounds = {"hold_s": POSITIVE}
-
-    def __init__(self, name: str = "wait_for", hold_s: float = 0.1) -> None:
-        super().__init__(name)
-        self.hold_s = hold_s
+    default_name = "wait_for"
+    hold_s = Parameter(0.1, bound=POSITIVE, doc="How long to wait (s).")
 
     def initialise(self):
         self.started = self.now

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from py_trees.common import Status
 
-from tactile_bt.tree import NON_NEGATIVE, POSITIVE, TactileBehaviour, register_node
+from tactile_bt.tree import NON_NEGATIVE, POSITIVE, Parameter, TactileBehaviour, register_node
 
 __all__ = ["PressUntil"]
 
@@ -19,26 +19,15 @@ class PressUntil(TactileBehaviour):
     """Move along the pad normal (+z of the sensor frame, towards the object) until the smoothed
     contact pressure reaches ``target_pa``; SUCCESS then. FAILURE when contact is lost after it
     was made, or after ``timeout_s`` of mission time.
-
-    Parameters
-    ----------
-    target_pa : float
-        Pressure to reach (Pa, > 0).
-    speed_mps : float
-        Pressing speed along +z_s (m/s, > 0).
-    timeout_s : float
-        Mission time allowed from the start of the leaf (s, >= 0).
     """
 
     uses = frozenset({"pressure"})  # the features this leaf reads: the mission computes only these
-    parameter_bounds = {"target_pa": POSITIVE, "speed_mps": POSITIVE, "timeout_s": NON_NEGATIVE}
-
-    def __init__(self, name: str = "press_until", target_pa: float = 3000.0, speed_mps: float = 0.002,
-                 timeout_s: float = 5.0) -> None:
-        super().__init__(name)
-        self.target_pa, self.speed_mps, self.timeout_s = float(target_pa), float(speed_mps), float(timeout_s)
-        self._started = 0.0
-        self._touched = False
+    # One declaration per parameter: default, bound and meaning; the unit follows from the name.
+    target_pa = Parameter(3000.0, bound=POSITIVE, doc="Pressure to reach (Pa, > 0).")
+    speed_mps = Parameter(0.002, bound=POSITIVE, doc="Pressing speed along +z_s (m/s, > 0).")
+    timeout_s = Parameter(5.0, bound=NON_NEGATIVE, doc="Mission time allowed from the start of the leaf (s, >= 0).")
+    _started = 0.0
+    _touched = False
 
     def initialise(self) -> None:
         self._started = self.now  # the mission clock, never wall time

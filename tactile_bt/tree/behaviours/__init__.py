@@ -1,13 +1,14 @@
 """py_trees leaves for every tactile servoing primitive, and the registry the YAML loader uses.
 
-Every class takes typed keyword parameters with defaults, units in their names (``target_pa``,
-``speed_mps``, ``grace_s``); the YAML node types below map to these classes, so a tree built in
-Python and one loaded from YAML are the same objects.
+Every class declares its parameters once (:class:`~tactile_bt.tree.declaration.Parameter`: type,
+default, unit, range, meaning) and is built with them as keyword arguments; the YAML node types
+below map to these classes, so a tree built in Python and one loaded from YAML are the same
+objects.
 
 Layer: tree.
 """
 
-from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour
+from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour, TactileDecorator
 from tactile_bt.tree.behaviours.cable import CableEnd
 from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
@@ -92,6 +93,7 @@ __all__ = [
     "OneShot",
     "BlackboardReferenceError",
     "bind_blackboard",
+    "TactileDecorator",
     "LEAVES",
     "DECORATORS",
 ]

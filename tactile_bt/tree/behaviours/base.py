@@ -20,12 +20,13 @@ from py_trees.common import Access, Status
 
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, BoundedParameters
+from tactile_bt.tree.declaration import REQUIRED, Parameter, Parameterised
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, resolve_references
 from tactile_bt.control.servo import PID, ChatterDamper, feature_error, feature_errors_of, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
 
-__all__ = ["LazyFeedback", "TactileBehaviour", "ServoLeaf", "METRIC_OF_COMPONENT", "metric_scale", "norm"]
+__all__ = ["LazyFeedback", "TactileBehaviour", "TactileDecorator", "ServoLeaf", "ROLL_RADIUS", "METRIC_OF_COMPONENT", "metric_scale", "norm"]
 
 _ZERO_TWIST = (0.0,) * 6
 _RUNNING = Status.RUNNING
@@ -76,16 +77,15 @@ class LazyFeedback:
         return ""
 
 
-class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behaviour):
+class TactileBehaviour(LazyFeedback, Parameterised, py_trees.behaviour.Behaviour):
     """A py_trees leaf with read access to the cycle data of the ``/tactile`` blackboard.
 
     Subclasses list the features they need in ``uses`` (``"pressure"``, ``"cop"``,
-    ``"orientation"``); the mission computes only what the running leaves use.
-
-    Parameters
-    ----------
-    name : str
-        Name of the node: shown in the tree display, and the source of the twist part it adds.
+    ``"orientation"``); the mission computes only what the running leaves use. They declare
+    their parameters as class attributes (:class:`~tactile_bt.tree.declaration.Parameter`) and
+    build what they derive from them in :meth:`parameters_changed`; a leaf is built with
+    keyword arguments, ``ForceHold("hold", target_pa=1500.0)`` (``name`` may come first, and the
+    parameters after it in the order of ``parameters``).
     """
 
     uses: frozenset[str] = frozenset()
@@ -93,15 +93,15 @@ class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behav
     #: A leaf whose SUCCESS ends a task by touch (the end of a cable, no frontier left): its name
     #: and feedback message become the mission's reason (:func:`tactile_bt.mission.loop.success_reason`).
     reports_success: bool = False
-    #: Parameters that shape the leaf at construction and so cannot follow a blackboard key.
-    fixed_parameters: frozenset[str] = frozenset({"name"})
 
-    def __init__(self, name: str) -> None:
-        super().__init__(name=name)
-        self.bb = self.attach_blackboard_client(name=name, namespace=NAMESPACE)
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        values = self.check_parameters(name, parameters, args)
+        py_trees.behaviour.Behaviour.__init__(self, name=values["name"])
+        self.bb = self.attach_blackboard_client(name=self.name, namespace=NAMESPACE)
         for key in KEYS:
             access = Access.WRITE if key in self.writes else Access.READ
             self.bb.register_key(key=key, access=access)
+        self.apply_parameters(values)
 
     # Hot-path reads. The keys are registered with the client above (so py_trees shows who
     # reads what); the per-cycle values come through the blackboard adapter's fast path.
@@ -136,6 +136,8 @@ class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behav
         all statuses built to check the one ``update`` returned. Same calls, same order, same
         result; with py_trees' debug log on, py_trees' own ``tick`` runs."""
         if debug_logging():
+            if self.status != _RUNNING:
+                resolve_references(self)
             yield from super().tick()
             return
         self.tick_direct()
@@ -144,6 +146,7 @@ class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behav
     def tick_direct(self) -> None:
         """:meth:`tick` without the generator (:mod:`tactile_bt.tree.ticking`)."""
         if self.status != _RUNNING:
+            resolve_references(self)
             self.initialise()
         new_status = self.update()
         if new_status not in STATUSES:
@@ -152,17 +155,6 @@ class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behav
             self.stop(new_status)
         self.status = new_status
 
-    def set_parameter(self, name: str, value) -> None:
-        """Change parameter ``name`` (already checked against its type) between runs.
-
-        Blackboard references call this when the leaf starts; subclasses override it for
-        parameters with derived state or range checks, and their ``__init__`` goes through the
-        same checks.
-        """
-        if name in self.fixed_parameters:
-            raise ValueError(f"{self.name}: {name} is fixed at construction")
-        setattr(self, name, value)
-
     def setup(self, **kwargs) -> None:
         """Bind the mission's constant objects: the control period and the cycle command.
 
@@ -170,6 +162,27 @@ class TactileBehaviour(LazyFeedback, BoundedParameters, py_trees.behaviour.Behav
         """
         self.dt = float(self.bb.dt)
         self.command = self.bb.command
+
+
+class TactileDecorator(Parameterised):
+    """Base of a decorator with declared parameters (mixed in before its py_trees decorator
+    class): built as ``Retry(child, name="retry", num_failures=2)``, the child first.
+
+    The py_trees class's own ``__init__`` does not run (its arguments are the declared
+    parameters); a decorator sets the rest of py_trees' state as class attributes or in
+    :meth:`~tactile_bt.tree.declaration.Parameterised.parameters_changed`.
+    """
+
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str | None = None, *args, **parameters) -> None:
+        values = self.check_parameters(name, parameters, args)
+        py_trees.decorators.Decorator.__init__(self, name=values["name"], child=child)
+        self.apply_parameters(values)
+
+
+#: ``roll_radius`` of the leaves that roll (``Roll``, ``TactileServo``, ``RollTo``), each
+#: declaring ``roll_radius = ROLL_RADIUS.replace()``.
+ROLL_RADIUS = Parameter(defaults.ROLL_RADIUS_M, bound=POSITIVE, unit="m", fixed=True,
+                        doc="Rolling radius r of the rows ωx = +Δy/r, ωy = −Δx/r of J⁻¹ (m).")
 
 
 class ServoLeaf(TactileBehaviour):
@@ -181,59 +194,64 @@ class ServoLeaf(TactileBehaviour):
     succeeds once every controlled error stays inside ``band`` for ``dwell_s`` seconds;
     otherwise it runs until its parent stops it.
 
+    The gains, ``output_limit`` and ``band`` are declared here without a default or unit; each
+    subclass redeclares them with its own (``kp = ServoLeaf.kp.replace(default=..., unit=...)``).
+
     Every servo leaf damps chatter the same way: an output that switches sign with a large jump
     tick after tick (a flat pad over a ridge or bridging a concave surface) has its gain
     reduced and is low-passed until it stops (:class:`~tactile_bt.control.servo.ChatterDamper`,
-    settings in :attr:`chatter`, defaults ``defaults.SERVO_CHATTER_*``); an output that does not
-    chatter passes unchanged.
-
-    Parameters
-    ----------
-    kp, ki, kd : float or list of float
-        PID gains per controlled component (see the subclass for units).
-    output_limit : float or list of float
-        Largest command per component (m/s for positions and force, rad/s for angles).
-    converge : bool
-        Succeed once the error stays inside ``band`` for ``dwell_s``; otherwise run until the
-        parent stops the leaf.
-    band : float or list of float
-        Convergence band per component, in the component's error unit (m, Pa or rad).
-    dwell_s : float
-        Time the errors must stay inside ``band`` (s, mission clock).
-    roll_radius : float
-        Rolling radius r of the rows ωx = +Δy/r, ωy = −Δx/r of J⁻¹ (m).
+    the ``chatter_*`` parameters, defaults ``defaults.SERVO_CHATTER_*``); an output that does
+    not chatter passes unchanged.
     """
 
     components: tuple[int, ...] = ()
     rows: tuple[int, ...] = ()
-    #: Units of the parameters whose names carry none (gains, limits, band), per subclass.
-    parameter_units: dict[str, str] = {}
-    #: Admissible values (see :mod:`tactile_bt.tree.parameters`); an output limit of inf
-    #: means no limit.
-    parameter_bounds = {"kp": NON_NEGATIVE, "ki": NON_NEGATIVE, "kd": NON_NEGATIVE,
-                        "output_limit": POSITIVE_OR_INF, "band": POSITIVE, "dwell_s": NON_NEGATIVE,
-                        "roll_radius": POSITIVE}
-    fixed_parameters = frozenset({"name", "roll_radius"})
-    #: The chatter damping of every servo leaf (:class:`~tactile_bt.control.servo.ChatterDamper`).
-    chatter = {"jump_share": defaults.SERVO_CHATTER_JUMP_SHARE, "step": defaults.SERVO_CHATTER_STEP,
-               "recover_s": defaults.SERVO_CHATTER_RECOVER_S, "gain_min": defaults.SERVO_CHATTER_GAIN_MIN,
-               "smooth_s": defaults.SERVO_CHATTER_SMOOTH_S, "gap_s": defaults.SERVO_CHATTER_GAP_S}
 
-    def __init__(
-        self,
-        name: str,
-        kp,
-        ki=0.0,
-        kd=0.0,
-        output_limit=np.inf,
-        converge: bool = False,
-        band=np.inf,
-        dwell_s: float = 0.5,
-        roll_radius: float = 0.05,
-    ) -> None:
-        super().__init__(name)
+    kp = Parameter(REQUIRED, type=float, bound=NON_NEGATIVE, unit=None,
+                   doc="Proportional gain per controlled component (see the subclass for units).")
+    ki = Parameter(0.0, type=float, bound=NON_NEGATIVE, unit=None, doc="Integral gain per controlled component.")
+    kd = Parameter(0.0, type=float, bound=NON_NEGATIVE, unit=None, doc="Derivative gain per controlled component.")
+    output_limit = Parameter(math.inf, type=float, bound=POSITIVE_OR_INF, unit=None,
+                             doc="Largest command per component (m/s for positions and force, rad/s for angles).")
+    converge = Parameter(False, doc="Succeed once the error stays inside ``band`` for ``dwell_s``; otherwise run "
+                                    "until the parent stops the leaf.")
+    band = Parameter(math.inf, type=float, bound=POSITIVE, unit=None,
+                     doc="Convergence band per component, in the component's error unit (m, Pa or rad).")
+    dwell_s = Parameter(0.5, bound=NON_NEGATIVE, doc="Time the errors must stay inside ``band`` (s, mission clock).")
+    chatter_jump_share = Parameter(defaults.SERVO_CHATTER_JUMP_SHARE, bound=between(0, 2, low_open=True), unit=None,
+                                   doc="A sign change of an output counts as chatter when it jumps by at least this "
+                                       "share of ``output_limit`` within "
+                                       f"{defaults.SERVO_CHATTER_GAP_S * 1e3:g} ms of the previous one.")
+    chatter_gain_min = Parameter(defaults.SERVO_CHATTER_GAIN_MIN, bound=between(0, 1), unit=None,
+                                 doc="Gain of an output at full chatter (1: no damping).")
+    chatter_smooth_s = Parameter(defaults.SERVO_CHATTER_SMOOTH_S, bound=NON_NEGATIVE,
+                                 doc="Time constant of the low-pass on an output at full chatter (s).")
+    chatter_recover_s = Parameter(defaults.SERVO_CHATTER_RECOVER_S, bound=POSITIVE,
+                                  doc="Time in which the damping wears off without chatter (s).")
+
+    _inputs = None  # features and targets of the last tick, for last_error
+    _inside_since: float | None = None
+    _last_twist = _ZERO_TWIST
+
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        """Rebuild the PID of changed gains, the Jacobian map of a changed ``roll_radius`` (or
+        projection), the per-component ``band``."""
         n = len(self.components)
-        self.pid = self._make_pid(kp, ki, kd, output_limit)
+        if changed & {"kp", "ki", "kd", "output_limit"}:
+            self.pid = self._make_pid(self.kp, self.ki, self.kd, self.output_limit)
+        if changed & {"kp", "ki", "kd", "output_limit", "chatter_jump_share", "chatter_gain_min", "chatter_smooth_s",
+                      "chatter_recover_s"}:
+            self.damper = ChatterDamper(self.pid.output_limit, self.chatter_jump_share, defaults.SERVO_CHATTER_STEP,
+                                        self.chatter_recover_s, self.chatter_gain_min, self.chatter_smooth_s,
+                                        defaults.SERVO_CHATTER_GAP_S)
+        if "roll_radius" in changed or not hasattr(self, "_map"):
+            self._build_map(getattr(self, "roll_radius", defaults.ROLL_RADIUS_M))
+        if "band" in changed:
+            self.band = per_component(self.band, n, "band", self.name)
+
+    def _build_map(self, roll_radius: float) -> None:
+        """The columns of P·J⁻¹ of this leaf's components and the tables of the hot path."""
+        n = len(self.components)
         P = np.zeros((6, 6))
         P[list(self.rows), list(self.rows)] = 1.0
         # Columns of P·J⁻¹ for this leaf's components: a 6×n map from u to the twist part.
@@ -250,38 +268,10 @@ class ServoLeaf(TactileBehaviour):
         # nothing and see NaN (state held, u = 0).
         self._error = feature_errors_of(self.components, self._active)
         self._no_contact = [math.nan] * n
-        self._inputs = None  # features and targets of the last tick, for last_error
         self._set_pad(PadGeometry())  # the mission's pad replaces it when the leaf starts
-        self.converge = bool(converge)
-        self.set_parameter("band", band)
-        self.set_parameter("dwell_s", dwell_s)
-        self._inside_since: float | None = None
-        self._last_twist = _ZERO_TWIST
 
     def _make_pid(self, kp, ki, kd, output_limit) -> PID:
-        pid = PID(kp, ki, kd, output_limit, n=len(self.components), owner=self.name)
-        self.damper = ChatterDamper(pid.output_limit, **self.chatter)
-        return pid
-
-    def set_parameter(self, name: str, value) -> None:
-        """Gains (``kp``, ``ki``, ``kd``, ``output_limit``), ``band``, ``dwell_s`` and
-        ``converge`` as well as the subclass's targets."""
-        n = len(self.components)
-        if name in ("kp", "ki", "kd", "output_limit"):
-            pid = self.pid
-            gains = {"kp": pid.kp, "ki": pid.ki, "kd": pid.kd, "output_limit": pid.output_limit}
-            gains[name] = value
-            self.pid = self._make_pid(**gains)
-        elif name == "band":
-            self.band = per_component(value, n, "band", self.name)
-        elif name == "dwell_s":
-            if not value >= 0:
-                raise ValueError(f"{self.name}: dwell_s must not be negative, got {value!r}")
-            self.dwell_s = float(value)
-        elif name == "converge":
-            self.converge = bool(value)
-        else:
-            super().set_parameter(name, value)
+        return PID(kp, ki, kd, output_limit, n=len(self.components), owner=self.name)
 
     def _set_pad(self, pad: PadGeometry) -> None:
         """Log the COP errors in tactels of ``pad``."""

@@ -33,6 +33,7 @@ from py_trees.common import Access, Status
 from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import FEATURES_RAW, TIME, read, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, between, normalise_key
 
 __all__ = ["CableEnd", "line_reach"]
@@ -96,58 +97,38 @@ class CableEnd(TactileBehaviour):
     The defaults leave wide margins to what following shows on the shipped cables (from 3 to
     6 mm thick, soft and stiff, bends down to 51 mm radius): anisotropy at least 0.82, the line
     within 3° of the travel and 0.7 px of the centre, reaching the leading border.
-
-    Parameters
-    ----------
-    name : str
-        Name of the node.
-    direction_rad : float
-        Direction of travel in the sensor frame, from +x towards +y (rad); ``pi/2`` is the
-        sensor y axis, along which ``guided_slide`` moves the pad in the cable trees.
-    reach_m : float
-        The line has ended when its leading end is less than this far ahead of the pad centre
-        (m; ``3 px`` are three tactels of the pad). The imprint reaches a tactel or two beyond
-        the cable's end (the foam spreads the load), so 15 mm ends the follow with the end of the
-        cable about at the pad centre.
-    max_offset_m : float
-        Largest distance of the line's axis from the pad centre (m).
-    max_turn_rad : float
-        Largest angle between the line and the direction of travel (rad).
-    min_anisotropy : float
-        Below this the contact is no line: ``(l1 - l2) / (l1 + l2)`` of its tactel positions.
-    max_area_ratio : float
-        Above this share of the pad's tactels the contact is no line.
-    lost_s : float
-        Time without contact taken as the end (s).
-    dwell_s : float
-        The line is gone when it was judged gone in more than half of the cycles of the last
-        ``dwell_s`` of mission time (a single odd frame decides nothing).
-    on_line_key : str
-        Blackboard key written every cycle: whether the contact is the followed line.
     """
 
     uses = frozenset({"pressure", "orientation"})
     reports_success = True
-    parameter_bounds = {"reach_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "max_turn_rad": between(0.0, math.pi / 2),
-                        "min_anisotropy": between(0.0, 1.0), "max_area_ratio": between(0.0, 1.0, low_open=True),
-                        "lost_s": NON_NEGATIVE, "dwell_s": NON_NEGATIVE}
-    fixed_parameters = frozenset({"name", "on_line_key"})
 
-    def __init__(self, name: str = "cable_end", direction_rad: float = math.pi / 2, reach_m: float = 0.015,
-                 max_offset_m: float = 0.010, max_turn_rad: float = math.radians(10.0), min_anisotropy: float = 0.7,
-                 max_area_ratio: float = 0.35, lost_s: float = 0.3, dwell_s: float = 0.1,
-                 on_line_key: str = "/cable/on_line") -> None:
-        super().__init__(name)
-        self.direction_rad = float(direction_rad)
-        self.reach_m = float(reach_m)
-        self.max_offset_m = float(max_offset_m)
-        self.max_turn_rad = float(max_turn_rad)
-        self.min_anisotropy = float(min_anisotropy)
-        self.max_area_ratio = float(max_area_ratio)
-        self.lost_s = float(lost_s)
-        self.dwell_s = float(dwell_s)
-        self.on_line_key = normalise_key(on_line_key)
-        self._writer = self.attach_blackboard_client(name=f"{name}/on_line")
+    direction_rad = Parameter(math.pi / 2, doc="Direction of travel in the sensor frame, from +x towards +y (rad); "
+                                               "``pi/2`` is the sensor y axis, along which ``guided_slide`` moves the "
+                                               "pad in the cable trees.")
+    reach_m = Parameter(0.015, bound=NON_NEGATIVE,
+                        doc="The line has ended when its leading end is less than this far ahead of the pad centre "
+                            "(m; ``3 px`` are three tactels of the pad). The imprint reaches a tactel or two beyond "
+                            "the cable's end (the foam spreads the load), so 15 mm ends the follow with the end of "
+                            "the cable about at the pad centre.")
+    max_offset_m = Parameter(0.010, bound=NON_NEGATIVE, doc="Largest distance of the line's axis from the pad centre (m).")
+    max_turn_rad = Parameter(math.radians(10.0), bound=between(0.0, math.pi / 2),
+                             doc="Largest angle between the line and the direction of travel (rad).")
+    min_anisotropy = Parameter(0.7, bound=between(0.0, 1.0), unit=None,
+                               doc="Below this the contact is no line: ``(l1 - l2) / (l1 + l2)`` of its tactel "
+                                   "positions.")
+    max_area_ratio = Parameter(0.35, bound=between(0.0, 1.0, low_open=True), unit=None,
+                               doc="Above this share of the pad's tactels the contact is no line.")
+    lost_s = Parameter(0.3, bound=NON_NEGATIVE, doc="Time without contact taken as the end (s).")
+    dwell_s = Parameter(0.1, bound=NON_NEGATIVE,
+                        doc="The line is gone when it was judged gone in more than half of the cycles of the last "
+                            "``dwell_s`` of mission time (a single odd frame decides nothing).")
+    on_line_key = Parameter("/cable/on_line", fixed=True,
+                            doc="Blackboard key written every cycle: whether the contact is the followed line.")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.on_line_key = normalise_key(self.on_line_key)
+        self._writer = self.attach_blackboard_client(name=f"{self.name}/on_line")
         self._writer.register_key(key=self.on_line_key, access=Access.WRITE)
         self._window: deque[tuple[float, str]] = deque()
         self._gone = 0  # verdicts in the window that say the line is gone

@@ -34,6 +34,7 @@ from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, POSE, TIME, read, read_or
 from tactile_bt.tree.behaviours.stiffness import FORCE_TARGET_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, normalise_key
 from tactile_bt.perception.features import local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
@@ -152,119 +153,83 @@ class RecordContacts(TactileBehaviour):
     """While RUNNING, append the contact point ``T_gs · cop`` of every cycle in contact to the
     mission's contact cloud (``/tactile/contacts``); with ``point: region`` the whole imprint.
     Never finishes by itself; the feedback message counts the samples.
-
-    Parameters
-    ----------
-    min_spacing_m : float
-        Skip a cycle whose contact point lies closer than this (m) to the previous recorded one
-        (0 keeps all). With ``point: region``: skip the cycle until the pad has moved this far
-        (its centre of pressure, plus half the pad's longer side, 40 mm on the default pad,
-        times the turn of the pad in rad).
-    point : str
-        ``"cop"``: the centre of pressure (Eq. 1). ``"local"``: where an elongated contact
-        crosses the pad centre (:func:`~tactile_bt.perception.features.local_contact_point`), which removes
-        the chord bias of the COP on curved lines such as a bent cable; needs the orientation
-        (a cycle without one records nothing).
-        ``"region"``: every point of the contact imprint (:func:`imprint_points`), each with
-        its local pressure; covers a surface as fast as the pad is wide.
-    voxel_m : float
-        Keep at most one sample per voxel of this edge (m), shared by every recorder of the
-        mission (0 = off).
-    region_level : float
-        ``point: region``: fraction of the contact's peak force where the imprint ends (0–1).
-    region_step_m : float
-        ``point: region``: spacing of the imprint samples on the pad (m).
-    reconstruct : str
-        Surface reconstruction of the cloud at the end of the mission, written to
-        ``surface.ply`` (:mod:`tactile_bt.contacts.reconstruct`): ``none``, ``auto``, ``delaunay``,
-        ``surface`` or ``hull``.
-    only_when : str
-        A blackboard key (e.g. ``/cable/on_line``, written by ``cable_end``): record only in cycles
-        where its value is true. Empty: every cycle in contact.
-    table_margin_m : float
-        Leave out the points less than this (m) above the table of the set-up (``table_key``):
-        a contact with the table is not a point of the object (0 = keep them all).
-    table_key : str
-        Blackboard key of the table's height (m, world z; absent or NaN: no table), read when
-        the leaf starts (:mod:`tactile_bt.tree.behaviours.table`).
-    max_pressure_ratio : float
-        Record only while the smoothed pressure is at most this many times the target, and of an
-        imprint only the points whose local pressure is (inf: no limit).
-    min_pressure_ratio : float
-        Record only while the smoothed pressure is at least this many times the target (0: from
-        the first touch).
-    other_region_share : float
-        ``point: cop`` or ``local``: record only while the tactels in contact outside the largest
-        region (and its fringe) carry at most this share of its force (inf: never check).
-    max_approach_mps : float
-        Record only while the pad moves into the object along its normal at most this fast
-        (m/s; inf: never check).
-    nominal_pa : float
-        The pressure target (Pa) while ``target_key`` holds none.
-    target_key : str
-        Blackboard key of the adapted pressure target (Pa), read every cycle (empty: none).
     """
 
     uses = frozenset({"cop", "pressure"})
-    fixed_parameters = frozenset({"name", "point", "reconstruct", "table_key", "target_key"})
-    parameter_bounds = {"min_spacing_m": NON_NEGATIVE, "voxel_m": NON_NEGATIVE,
-                        "region_level": between(0, 1, low_open=True), "region_step_m": POSITIVE,
-                        "table_margin_m": NON_NEGATIVE, "max_pressure_ratio": POSITIVE_OR_INF,
-                        "min_pressure_ratio": NON_NEGATIVE, "other_region_share": POSITIVE_OR_INF,
-                        "max_approach_mps": POSITIVE_OR_INF, "nominal_pa": POSITIVE}
 
-    def __init__(self, name: str = "record_contacts", min_spacing_m: float = 0.0,
-                 point: Literal["cop", "local", "region"] = "cop", voxel_m: float = 0.0,
-                 region_level: float = 0.5, region_step_m: float = 0.0025,
-                 reconstruct: Literal["none", "auto", "delaunay", "surface", "hull"] = "none",
-                 only_when: str = "", table_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY,
-                 max_pressure_ratio: float = defaults.RECORD_MAX_PRESSURE_RATIO,
-                 min_pressure_ratio: float = defaults.RECORD_MIN_PRESSURE_RATIO,
-                 other_region_share: float = defaults.RECORD_OTHER_REGION_SHARE,
-                 max_approach_mps: float = defaults.RECORD_MAX_APPROACH_MPS,
-                 nominal_pa: float = defaults.TARGET_PRESSURE_PA, target_key: str = FORCE_TARGET_KEY) -> None:
-        super().__init__(name)
-        if point not in ("cop", "local", "region"):
-            raise ValueError(f"{name}: point must be 'cop', 'local' or 'region', got {point!r}")
-        if reconstruct not in ("none", "auto", "delaunay", "surface", "hull"):
-            raise ValueError(f"{name}: reconstruct must be none, auto, delaunay, surface or hull, got {reconstruct!r}")
-        self.point = point
-        self.reconstruct = reconstruct
-        self.only_when = normalise_key(only_when) if only_when else ""
-        if point == "local":
-            self.uses = frozenset({"cop", "pressure", "orientation"})
-        self.set_parameter("min_spacing_m", min_spacing_m)
-        self.set_parameter("voxel_m", voxel_m)
-        self.set_parameter("region_level", region_level)
-        self.set_parameter("region_step_m", region_step_m)
-        self.set_parameter("table_margin_m", table_margin_m)
-        for key, value in (("max_pressure_ratio", max_pressure_ratio), ("min_pressure_ratio", min_pressure_ratio),
-                           ("other_region_share", other_region_share), ("max_approach_mps", max_approach_mps),
-                           ("nominal_pa", nominal_pa)):
-            self.set_parameter(key, value)
-        self.target_key = normalise_key(target_key) if target_key else ""
-        self.table_key = normalise_key(table_key)
-        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+    min_spacing_m = Parameter(0.0, bound=NON_NEGATIVE,
+                              doc="Skip a cycle whose contact point lies closer than this (m) to the previous recorded "
+                                  "one (0 keeps all). With ``point: region``: skip the cycle until the pad has moved "
+                                  "this far (its centre of pressure, plus half the pad's longer side, 40 mm on the "
+                                  "default pad, times the turn of the pad in rad).")
+    point = Parameter("cop", type=Literal["cop", "local", "region"], fixed=True,
+                      doc="``\"cop\"``: the centre of pressure (Eq. 1). ``\"local\"``: where an elongated contact "
+                          "crosses the pad centre (:func:`~tactile_bt.perception.features.local_contact_point`), which "
+                          "removes the chord bias of the COP on curved lines such as a bent cable; needs the "
+                          "orientation (a cycle without one records nothing). ``\"region\"``: every point of the "
+                          "contact imprint (:func:`imprint_points`), each with its local pressure; covers a surface "
+                          "as fast as the pad is wide.")
+    voxel_m = Parameter(0.0, bound=NON_NEGATIVE,
+                        doc="Keep at most one sample per voxel of this edge (m), shared by every recorder of the "
+                            "mission (0 = off).")
+    region_level = Parameter(0.5, bound=between(0, 1, low_open=True), unit=None,
+                             doc="``point: region``: fraction of the contact's peak force where the imprint ends (0–1).")
+    region_step_m = Parameter(0.0025, bound=POSITIVE,
+                              doc="``point: region``: spacing of the imprint samples on the pad (m).")
+    reconstruct = Parameter("none", type=Literal["none", "auto", "delaunay", "surface", "hull"], fixed=True,
+                            doc="Surface reconstruction of the cloud at the end of the mission, written to "
+                                "``surface.ply`` (:mod:`tactile_bt.contacts.reconstruct`): ``none``, ``auto``, "
+                                "``delaunay``, ``surface`` or ``hull``.")
+    only_when = Parameter("", doc="A blackboard key (e.g. ``/cable/on_line``, written by ``cable_end``): record only "
+                                  "in cycles where its value is true. Empty: every cycle in contact.")
+    table_margin_m = Parameter(0.0, bound=NON_NEGATIVE,
+                               doc="Leave out the points less than this (m) above the table of the set-up "
+                                   "(``table_key``): a contact with the table is not a point of the object (0 = keep "
+                                   "them all).")
+    table_key = Parameter(TABLE_Z_KEY, fixed=True,
+                          doc="Blackboard key of the table's height (m, world z; absent or NaN: no table), read when "
+                              "the leaf starts (:mod:`tactile_bt.tree.behaviours.table`).")
+    max_pressure_ratio = Parameter(defaults.RECORD_MAX_PRESSURE_RATIO, bound=POSITIVE_OR_INF, unit=None,
+                                   doc="Record only while the smoothed pressure is at most this many times the "
+                                       "target, and of an imprint only the points whose local pressure is (inf: no "
+                                       "limit).")
+    min_pressure_ratio = Parameter(defaults.RECORD_MIN_PRESSURE_RATIO, bound=NON_NEGATIVE, unit=None,
+                                   doc="Record only while the smoothed pressure is at least this many times the "
+                                       "target (0: from the first touch).")
+    other_region_share = Parameter(defaults.RECORD_OTHER_REGION_SHARE, bound=POSITIVE_OR_INF, unit=None,
+                                   doc="``point: cop`` or ``local``: record only while the tactels in contact outside "
+                                       "the largest region (and its fringe) carry at most this share of its force "
+                                       "(inf: never check).")
+    max_approach_mps = Parameter(defaults.RECORD_MAX_APPROACH_MPS, bound=POSITIVE_OR_INF,
+                                 doc="Record only while the pad moves into the object along its normal at most this "
+                                     "fast (m/s; inf: never check).")
+    nominal_pa = Parameter(defaults.TARGET_PRESSURE_PA, bound=POSITIVE,
+                           doc="The pressure target (Pa) while ``target_key`` holds none.")
+    target_key = Parameter(FORCE_TARGET_KEY, fixed=True,
+                           doc="Blackboard key of the adapted pressure target (Pa), read every cycle (empty: none).")
+
+    _floor = -math.inf  # points at or below this z (m) are the table's
+    _last: list[float] | None = None  # the last recorded contact point (m, world)
+    _last_rotation: np.ndarray | None = None
+    _in_contact = False
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
+        self.target_key = normalise_key(self.target_key) if self.target_key else ""
         if self.target_key:
             self._setup.register_key(key=self.target_key, access=Access.READ)
         self._position: np.ndarray | None = None  # the pad's position last cycle (m, world)
         self.skipped = 0  # cycles in contact not recorded because the contact was not settled
-        self._floor = -math.inf  # points at or below this z (m) are the table's
-        self._last: list[float] | None = None  # the last recorded contact point (m, world)
-        self._last_rotation: np.ndarray | None = None
-        self._in_contact = False
 
-    def set_parameter(self, name: str, value) -> None:
-        if name in ("min_spacing_m", "voxel_m", "table_margin_m") and not value >= 0:
-            raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
-        if name == "region_level" and not 0.0 < value <= 1.0:
-            raise ValueError(f"{self.name}: region_level must be in (0, 1], got {value}")
-        if name == "region_step_m" and not value > 0:
-            raise ValueError(f"{self.name}: region_step_m must be positive, got {value}")
-        numeric = ("min_spacing_m", "voxel_m", "region_level", "region_step_m", "table_margin_m", "max_pressure_ratio",
-                   "min_pressure_ratio", "other_region_share", "max_approach_mps", "nominal_pa")
-        super().set_parameter(name, float(value) if name in numeric else value)
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        if "only_when" in changed:
+            self.only_when = normalise_key(self.only_when) if self.only_when else ""
+        if "table_key" in changed:
+            self.table_key = normalise_key(self.table_key)
+        if "point" in changed and self.point == "local":
+            self.uses = frozenset({"cop", "pressure", "orientation"})
 
     def describe(self) -> str:
         """Samples in the cloud, and whether the pad is in contact."""

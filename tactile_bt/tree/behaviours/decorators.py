@@ -18,8 +18,9 @@ from typing import Literal
 import py_trees
 from py_trees.common import OneShotPolicy, Status
 
-from tactile_bt.tree.behaviours.base import LazyFeedback
-from tactile_bt.tree.parameters import Bound, BoundedParameters
+from tactile_bt.tree.behaviours.base import LazyFeedback, TactileDecorator
+from tactile_bt.tree.declaration import Parameter
+from tactile_bt.tree.parameters import Bound
 from tactile_bt.tree.ticking import DirectDecorator, debug_logging
 
 __all__ = ["Retry", "Repeat", "Inverter", "OneShot", "ONESHOT_POLICIES"]
@@ -31,32 +32,14 @@ ONESHOT_POLICIES = {
 }
 
 
-class Retry(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Retry):
+class Retry(LazyFeedback, DirectDecorator, TactileDecorator, py_trees.decorators.Retry):
     """Restart a failing child: a child FAILURE becomes RUNNING (and the child starts again on
     the next tick) until it has failed ``num_failures`` times; then FAILURE. SUCCESS passes.
-
-    Parameters
-    ----------
-    child : py_trees.behaviour.Behaviour
-        The decorated node (YAML: under ``child``).
-    name : str
-        Name of the node.
-    num_failures : int
-        Failures allowed, the last one included (>= 1; 1 = no retry).
     """
 
-    fixed_parameters = frozenset({"name"})
-    parameter_bounds = {"num_failures": Bound(1)}
-
-    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "retry", num_failures: int = 3) -> None:
-        if num_failures < 1:
-            raise ValueError(f"{name}: num_failures must be at least 1, got {num_failures}")
-        super().__init__(name=name, child=child, num_failures=int(num_failures))
-
-    def set_parameter(self, name: str, value) -> None:
-        if name != "num_failures" or value < 1:
-            raise ValueError(f"{self.name}: {name} must be an integer >= 1, got {value}")
-        self.num_failures = int(value)
+    num_failures = Parameter(3, bound=Bound(1), unit=None,
+                             doc="Failures allowed, the last one included (>= 1; 1 = no retry).")
+    failures = 0  # py_trees' count, reset when the decorator starts
 
     def update(self) -> Status:
         if self.decorated.status == Status.RUNNING:
@@ -69,32 +52,14 @@ class Retry(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorator
         return f"running [status: {self.failures} failure from {self.num_failures}]"
 
 
-class Repeat(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Repeat):
+class Repeat(LazyFeedback, DirectDecorator, TactileDecorator, py_trees.decorators.Repeat):
     """Run a child again after each SUCCESS until it has succeeded ``num_success`` times; then
     SUCCESS. A child FAILURE is FAILURE at once.
-
-    Parameters
-    ----------
-    child : py_trees.behaviour.Behaviour
-        The decorated node (YAML: under ``child``).
-    name : str
-        Name of the node.
-    num_success : int
-        Successes needed (>= 1), or -1 to repeat forever.
     """
 
-    fixed_parameters = frozenset({"name"})
-    parameter_bounds = {"num_success": Bound(1, also=(-1,))}
-
-    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "repeat", num_success: int = 2) -> None:
-        if num_success < 1 and num_success != -1:
-            raise ValueError(f"{name}: num_success must be at least 1 (or -1 for forever), got {num_success}")
-        super().__init__(name=name, child=child, num_success=int(num_success))
-
-    def set_parameter(self, name: str, value) -> None:
-        if name != "num_success" or (value < 1 and value != -1):
-            raise ValueError(f"{self.name}: {name} must be an integer >= 1 or -1, got {value}")
-        self.num_success = int(value)
+    num_success = Parameter(2, bound=Bound(1, also=(-1,)), unit=None,
+                            doc="Successes needed (>= 1), or -1 to repeat forever.")
+    success = 0  # py_trees' count, reset when the decorator starts
 
     def update(self) -> Status:
         status = self.decorated.status
@@ -108,21 +73,8 @@ class Repeat(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorato
         return f"running [status: {self.success} success from {self.num_success}]"
 
 
-class Inverter(LazyFeedback, DirectDecorator, py_trees.decorators.Inverter):
-    """Swap the child's SUCCESS and FAILURE; RUNNING passes through.
-
-    Parameters
-    ----------
-    child : py_trees.behaviour.Behaviour
-        The decorated node (YAML: under ``child``).
-    name : str
-        Name of the node.
-    """
-
-    fixed_parameters = frozenset({"name"})
-
-    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "inverter") -> None:
-        super().__init__(name=name, child=child)
+class Inverter(LazyFeedback, DirectDecorator, TactileDecorator, py_trees.decorators.Inverter):
+    """Swap the child's SUCCESS and FAILURE; RUNNING passes through."""
 
     def update(self) -> Status:
         status = self.decorated.status
@@ -136,29 +88,21 @@ class Inverter(LazyFeedback, DirectDecorator, py_trees.decorators.Inverter):
         return self.decorated.feedback_message
 
 
-class OneShot(DirectDecorator, py_trees.decorators.OneShot):
+class OneShot(DirectDecorator, TactileDecorator, py_trees.decorators.OneShot):
     """Run the child to completion once; afterwards return that final status without ticking
     the child again (e.g. a calibration touch at the start of a mission that may be re-entered).
-
-    Parameters
-    ----------
-    child : py_trees.behaviour.Behaviour
-        The decorated node (YAML: under ``child``).
-    name : str
-        Name of the node.
-    policy : str
-        ``on_completion``: done after the first SUCCESS or FAILURE. ``on_successful_completion``:
-        done after the first SUCCESS; a failure may be tried again.
     """
 
-    fixed_parameters = frozenset({"name", "policy"})
+    default_name = "oneshot"
+    #: Held as ``policy_name``: py_trees' ``policy`` is the OneShotPolicy it stands for.
+    policy = Parameter("on_successful_completion", type=Literal["on_completion", "on_successful_completion"],
+                       fixed=True, attribute="policy_name",
+                       doc="``on_completion``: done after the first SUCCESS or FAILURE. ``on_successful_completion``: "
+                           "done after the first SUCCESS; a failure may be tried again.")
+    final_status: Status | None = None  # py_trees' status once done
 
-    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "oneshot",
-                 policy: Literal["on_completion", "on_successful_completion"] = "on_successful_completion") -> None:
-        if policy not in ONESHOT_POLICIES:
-            raise ValueError(f"{name}: policy must be one of {', '.join(ONESHOT_POLICIES)}, got {policy!r}")
-        super().__init__(name=name, child=child, policy=ONESHOT_POLICIES[policy])
-        self.policy_name = policy
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        self.policy = ONESHOT_POLICIES[self.policy_name]
 
     def tick(self):
         if debug_logging():

@@ -39,6 +39,7 @@ from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import read_or, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["FrontierGuidance", "FrontierMap"]
@@ -220,112 +221,78 @@ class FrontierGuidance(TactileBehaviour):
 
     The map and its blocked directions outlive a restart of the leaf (a ``retry`` after a lost
     contact): they belong to the mission's contact cloud, and start again with a new cloud.
-
-    Parameters
-    ----------
-    key : str
-        Blackboard key the guidance twist is written to.
-    speed_mps : float
-        Sliding speed towards the frontier (m/s).
-    cell_m : float
-        Edge of the map's cells in the table plane (m).
-    extent_m : float
-        Half-size of the mapped square around the first contact (m).
-    max_tilt_rad : float
-        The pad's tilt limit from the vertical (rad): an attempt ends beyond it, and a frontier
-        whose touched surface is tilted more than ``max_tilt_rad - tilt_margin_rad`` is out of
-        reach.
-    tilt_margin_rad : float
-        See ``max_tilt_rad``.
-    table_clearance_m : float
-        An attempt ends when the pad's lowest corner comes this close to the table while moving
-        towards it, and the pad then backs off until it is twice as high (m; needs the table's
-        height on ``table_key``). Frontier cells this close to the table are the table's edge.
-    corner_margin_m : float
-        Width of the pad's frame around the sensing area, for the corners (m).
-    table_key : str
-        Blackboard key of the table's height (m, world z; absent or NaN: no table).
-    alarm_key : str
-        Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a
-        recovering ``table_clearance`` guard finds it too close to the table; None or absent
-        otherwise).
-    window_s : float
-        An attempt ends when the contact point moves less than ``min_travel_m`` in this time
-        (s; 0 = no stall test).
-    min_travel_m : float
-        See ``window_s`` (m).
-    min_area_ratio : float
-        An attempt ends when the contact shrinks below this fraction of its largest area in the
-        attempt (the pad has run half over an edge; 0 = off).
-    max_jump_m : float
-        An attempt ends when the contact point jumps more than this from one cycle to the next
-        (m; 0 = off): onto another object, such as the table. With the table's height known,
-        only a jump down to the table counts (a soft, lumpy object's contact may jump between
-        its parts).
-    edge_turn_rad : float
-        An attempt ends when the pad turns more than this within ``window_s``, away from the
-        vertical, at a radius of curvature below ``edge_radius_m``: it is rolling over an edge
-        (rad; 0 = off).
-    edge_radius_m : float
-        See ``edge_turn_rad`` (m).
-    block_radius_m : float
-        Radius around the pad centre within which frontier cells facing the way the pad went
-        are blocked when the attempt ends at an edge (the contact shrinks or the pad rolls over
-        it: the imprint has reached the edge across the pad; m; 0 = half the pad's width).
-    local_block_radius_m : float
-        Radius around the contact point within which they are blocked at the other ends: the
-        tilt limit, the table, a stall, a jump or a loss of the contact (m).
-    retreat_m : float
-        After an attempt has ended the pad backs off, uphill and away from the way it went, at
-        least this far (m) and until it is about as level as where the attempt started.
-    replan_s : float
-        Time between map updates and target choices (s).
-    attempt_s : float
-        Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back
-        off (s).
     """
 
     uses = frozenset({"cop"})
     #: Its SUCCESS ends a scan: the mission reports its message as the reason.
     reports_success = True
-    fixed_parameters = frozenset({"name", "key", "table_key", "alarm_key", "cell_m", "extent_m"})
-    parameter_bounds = {"speed_mps": POSITIVE, "cell_m": POSITIVE, "extent_m": POSITIVE,
-                        "max_tilt_rad": between(0, math.pi / 2, low_open=True),
-                        "tilt_margin_rad": between(0, math.pi / 2), "table_clearance_m": NON_NEGATIVE,
-                        "corner_margin_m": NON_NEGATIVE, "window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE,
-                        "min_area_ratio": between(0, 1, high_open=True), "max_jump_m": NON_NEGATIVE,
-                        "edge_turn_rad": between(0, math.pi), "edge_radius_m": NON_NEGATIVE,
-                        "block_radius_m": NON_NEGATIVE, "local_block_radius_m": NON_NEGATIVE,
-                        "retreat_m": NON_NEGATIVE, "replan_s": POSITIVE, "attempt_s": POSITIVE}
 
-    def __init__(self, name: str = "frontier_guidance", key: str = "/scan/guidance", speed_mps: float = 0.02,
-                 cell_m: float = 0.002, extent_m: float = 0.3, max_tilt_rad: float = math.radians(70.0),
-                 tilt_margin_rad: float = math.radians(5.0), table_clearance_m: float = 0.003,
-                 corner_margin_m: float = 0.0, table_key: str = TABLE_Z_KEY, alarm_key: str = TABLE_ALARM_KEY,
-                 window_s: float = 1.0,
-                 min_travel_m: float = 0.004, min_area_ratio: float = 0.5, max_jump_m: float = 0.01,
-                 edge_turn_rad: float = math.radians(10.0), edge_radius_m: float = 0.01,
-                 block_radius_m: float = 0.0, local_block_radius_m: float = 0.01, retreat_m: float = 0.005,
-                 replan_s: float = 0.2, attempt_s: float = 4.0) -> None:
-        super().__init__(name)
-        self.key = normalise_key(key)
-        self.table_key = normalise_key(table_key)
-        self._writer = self.attach_blackboard_client(name=f"{name}/guidance")
+    key = Parameter("/scan/guidance", fixed=True, doc="Blackboard key the guidance twist is written to.")
+    speed_mps = Parameter(0.02, bound=POSITIVE, doc="Sliding speed towards the frontier (m/s).")
+    cell_m = Parameter(0.002, bound=POSITIVE, fixed=True, doc="Edge of the map's cells in the table plane (m).")
+    extent_m = Parameter(0.3, bound=POSITIVE, fixed=True, doc="Half-size of the mapped square around the first contact (m).")
+    max_tilt_rad = Parameter(math.radians(70.0), bound=between(0, math.pi / 2, low_open=True),
+                             doc="The pad's tilt limit from the vertical (rad): an attempt ends beyond it, and a "
+                                 "frontier whose touched surface is tilted more than ``max_tilt_rad - "
+                                 "tilt_margin_rad`` is out of reach.")
+    tilt_margin_rad = Parameter(math.radians(5.0), bound=between(0, math.pi / 2), doc="See ``max_tilt_rad``.")
+    table_clearance_m = Parameter(0.003, bound=NON_NEGATIVE,
+                                  doc="An attempt ends when the pad's lowest corner comes this close to the table "
+                                      "while moving towards it, and the pad then backs off until it is twice as high "
+                                      "(m; needs the table's height on ``table_key``). Frontier cells this close to "
+                                      "the table are the table's edge.")
+    corner_margin_m = Parameter(0.0, bound=NON_NEGATIVE,
+                                doc="Width of the pad's frame around the sensing area, for the corners (m).")
+    table_key = Parameter(TABLE_Z_KEY, fixed=True,
+                          doc="Blackboard key of the table's height (m, world z; absent or NaN: no table).")
+    alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True,
+                          doc="Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a "
+                              "recovering ``table_clearance`` guard finds it too close to the table; None or absent "
+                              "otherwise).")
+    window_s = Parameter(1.0, bound=NON_NEGATIVE,
+                         doc="An attempt ends when the contact point moves less than ``min_travel_m`` in this time "
+                             "(s; 0 = no stall test).")
+    min_travel_m = Parameter(0.004, bound=NON_NEGATIVE, doc="See ``window_s`` (m).")
+    min_area_ratio = Parameter(0.5, bound=between(0, 1, high_open=True), unit=None,
+                               doc="An attempt ends when the contact shrinks below this fraction of its largest area "
+                                   "in the attempt (the pad has run half over an edge; 0 = off).")
+    max_jump_m = Parameter(0.01, bound=NON_NEGATIVE,
+                           doc="An attempt ends when the contact point jumps more than this from one cycle to the "
+                               "next (m; 0 = off): onto another object, such as the table. With the table's height "
+                               "known, only a jump down to the table counts (a soft, lumpy object's contact may jump "
+                               "between its parts).")
+    edge_turn_rad = Parameter(math.radians(10.0), bound=between(0, math.pi),
+                              doc="An attempt ends when the pad turns more than this within ``window_s``, away from "
+                                  "the vertical, at a radius of curvature below ``edge_radius_m``: it is rolling over "
+                                  "an edge (rad; 0 = off).")
+    edge_radius_m = Parameter(0.01, bound=NON_NEGATIVE, doc="See ``edge_turn_rad`` (m).")
+    block_radius_m = Parameter(0.0, bound=NON_NEGATIVE,
+                               doc="Radius around the pad centre within which frontier cells facing the way the pad "
+                                   "went are blocked when the attempt ends at an edge (the contact shrinks or the pad "
+                                   "rolls over it: the imprint has reached the edge across the pad; m; 0 = half the "
+                                   "pad's width).")
+    local_block_radius_m = Parameter(0.01, bound=NON_NEGATIVE,
+                                     doc="Radius around the contact point within which they are blocked at the other "
+                                         "ends: the tilt limit, the table, a stall, a jump or a loss of the contact "
+                                         "(m).")
+    retreat_m = Parameter(0.005, bound=NON_NEGATIVE,
+                          doc="After an attempt has ended the pad backs off, uphill and away from the way it went, at "
+                              "least this far (m) and until it is about as level as where the attempt started.")
+    replan_s = Parameter(0.2, bound=POSITIVE, doc="Time between map updates and target choices (s).")
+    attempt_s = Parameter(4.0, bound=POSITIVE,
+                          doc="Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back "
+                              "off (s).")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.key = normalise_key(self.key)
+        self.table_key = normalise_key(self.table_key)
+        self._writer = self.attach_blackboard_client(name=f"{self.name}/guidance")
         self._writer.register_key(key=self.key, access=Access.WRITE)
-        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+        self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
-        self.alarm_key = normalise_key(alarm_key)
+        self.alarm_key = normalise_key(self.alarm_key)
         self._setup.register_key(key=self.alarm_key, access=Access.READ)
-        self.cell_m = float(cell_m)
-        self.extent_m = float(extent_m)
-        self._end = StripeEnd(name=f"{name}/end")  # the end-of-surface test of an attempt
-        for k, v in (("speed_mps", speed_mps), ("max_tilt_rad", max_tilt_rad), ("tilt_margin_rad", tilt_margin_rad),
-                     ("table_clearance_m", table_clearance_m), ("corner_margin_m", corner_margin_m),
-                     ("window_s", window_s), ("min_travel_m", min_travel_m), ("min_area_ratio", min_area_ratio),
-                     ("max_jump_m", max_jump_m), ("edge_turn_rad", edge_turn_rad), ("edge_radius_m", edge_radius_m),
-                     ("block_radius_m", block_radius_m), ("local_block_radius_m", local_block_radius_m),
-                     ("retreat_m", retreat_m), ("replan_s", replan_s), ("attempt_s", attempt_s)):
-            self.set_parameter(k, v)
         #: The map of the touched surface (None before the first contact sample).
         self.map: FrontierMap | None = None
         self._map_cloud = None  # the cloud the map was filled from
@@ -348,12 +315,12 @@ class FrontierGuidance(TactileBehaviour):
         self._state = "waiting for contact"
         self._reset_motion()
 
-    def set_parameter(self, name: str, value) -> None:
-        if name in self.parameter_bounds:
-            value = float(value)
-        super().set_parameter(name, value)
-        if name in _END_PARAMETERS:
-            self._end.set_parameter(name, value)
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        """Pass the parameters of the end-of-surface test on to it (built on first use)."""
+        if "_end" not in self.__dict__:
+            self._end = StripeEnd(name=f"{self.name}/end")  # the end-of-surface test of an attempt
+        for name in changed & set(_END_PARAMETERS):
+            self._end.set_parameter(name, getattr(self, name))
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)

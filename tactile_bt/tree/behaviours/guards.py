@@ -11,57 +11,33 @@ from __future__ import annotations
 import py_trees
 from py_trees.common import Access, Status
 
-from tactile_bt.tree.behaviours.base import LazyFeedback, TactileBehaviour
+from tactile_bt.tree.behaviours.base import LazyFeedback, TactileBehaviour, TactileDecorator
 from tactile_bt.tree.blackboard import NAMESPACE, TIME, read
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, BoundedParameters
+from tactile_bt.tree.declaration import Parameter
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE
 from tactile_bt.tree.ticking import DirectDecorator
 
 __all__ = ["MissionTimeout", "ContactLost", "ForceLimit"]
 
 
-class MissionTimeout(LazyFeedback, DirectDecorator, BoundedParameters, py_trees.decorators.Decorator):
+class MissionTimeout(LazyFeedback, DirectDecorator, TactileDecorator, py_trees.decorators.Decorator):
     """Run ``child`` for at most ``duration_s`` seconds of mission time, then FAILURE
     (or SUCCESS with ``succeed=True``, for phases that simply last a while). A child that
     finishes in time passes its status through. The clock restarts whenever the decorator
     starts again.
-
-    Parameters
-    ----------
-    child : py_trees.behaviour.Behaviour
-        The decorated node (YAML: under ``child``).
-    name : str
-        Name of the node.
-    duration_s : float
-        Mission time allowed to the child (s, > 0).
-    succeed : bool
-        SUCCESS instead of FAILURE when the time is up.
     """
 
-    fixed_parameters = frozenset({"name"})
-    parameter_bounds = {"duration_s": POSITIVE}
+    duration_s = Parameter(10.0, bound=POSITIVE, doc="Mission time allowed to the child (s, > 0).")
+    succeed = Parameter(False, doc="SUCCESS instead of FAILURE when the time is up.")
+    _start = 0.0
+    _elapsed = 0.0
 
-    def __init__(self, child: py_trees.behaviour.Behaviour, name: str = "mission_timeout", duration_s: float = 10.0,
-                 succeed: bool = False) -> None:
-        super().__init__(name=name, child=child)
-        self.set_parameter("duration_s", duration_s)
-        self.succeed = bool(succeed)
+    def __init__(self, child: py_trees.behaviour.Behaviour, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(child, name, *args, **parameters)
         # The key is registered so that py_trees shows who reads it; the per-tick read goes
         # straight to the storage (the client's bookkeeping costs several µs per read).
-        self.bb = self.attach_blackboard_client(name=name, namespace=NAMESPACE)
+        self.bb = self.attach_blackboard_client(name=self.name, namespace=NAMESPACE)
         self.bb.register_key(key="time", access=Access.READ)
-        self._start = 0.0
-        self._elapsed = 0.0
-
-    def set_parameter(self, name: str, value) -> None:
-        """``duration_s`` (> 0) or ``succeed``."""
-        if name == "duration_s":
-            if not value > 0:
-                raise ValueError(f"{self.name}: duration_s must be positive, got {value}")
-            self.duration_s = float(value)
-        elif name == "succeed":
-            self.succeed = bool(value)
-        else:
-            raise ValueError(f"{self.name}: {name} is fixed at construction")
 
     def describe(self) -> str:
         """Mission time used so far and allowed."""
@@ -89,25 +65,11 @@ class ContactLost(TactileBehaviour):
     """RUNNING while in contact; FAILURE once contact has been absent for ``grace_s`` seconds
     of mission time. Put it in parallel with servo leaves to end a branch when the object is
     lost.
-
-    Parameters
-    ----------
-    grace_s : float
-        Time without contact tolerated before failing (s).
     """
 
     uses = frozenset({"pressure"})
-    parameter_bounds = {"grace_s": NON_NEGATIVE}
-
-    def __init__(self, name: str = "contact_lost", grace_s: float = 0.2) -> None:
-        super().__init__(name)
-        self.set_parameter("grace_s", grace_s)
-        self._lost_since: float | None = None
-
-    def set_parameter(self, name: str, value) -> None:
-        if name == "grace_s" and not value >= 0:
-            raise ValueError(f"{self.name}: grace_s must not be negative, got {value}")
-        super().set_parameter(name, float(value) if name == "grace_s" else value)
+    grace_s = Parameter(0.2, bound=NON_NEGATIVE, doc="Time without contact tolerated before failing (s).")
+    _lost_since: float | None = None
 
     def initialise(self) -> None:
         self._lost_since = None
@@ -130,25 +92,11 @@ class ContactLost(TactileBehaviour):
 class ForceLimit(TactileBehaviour):
     """RUNNING while the contact force stays at or below ``limit_n``; FAILURE above it. Judged
     on the unsmoothed force, so a spike the moving average would hide still trips it.
-
-    Parameters
-    ----------
-    limit_n : float
-        Largest contact force (N, the sum over the contact region).
     """
 
     uses = frozenset({"pressure"})
-    parameter_bounds = {"limit_n": POSITIVE}
-
-    def __init__(self, name: str = "force_limit", limit_n: float = 10.0) -> None:
-        super().__init__(name)
-        self.set_parameter("limit_n", limit_n)
-        self._force = 0.0
-
-    def set_parameter(self, name: str, value) -> None:
-        if name == "limit_n" and not value > 0:
-            raise ValueError(f"{self.name}: limit_n must be positive, got {value}")
-        super().set_parameter(name, float(value) if name == "limit_n" else value)
+    limit_n = Parameter(10.0, bound=POSITIVE, doc="Largest contact force (N, the sum over the contact region).")
+    _force = 0.0
 
     def describe(self) -> str:
         """The unsmoothed force of the last tick."""

@@ -14,8 +14,9 @@ from py_trees.common import Access, Status
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import read
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, check_bound, node_label, normalise_key
-from tactile_bt.errors import BlackboardReferenceError, ParameterValueError
+from tactile_bt.tree.declaration import Parameter
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.units import TWIST
 
 
@@ -28,52 +29,23 @@ class Approach(TactileBehaviour):
     of travel without reaching it. This is the start of every experiment of the paper (Sec. V).
 
     The feedback message tells the distance travelled, the pressure reached, or why it failed.
-
-    Parameters
-    ----------
-    speed_mps : float
-        Approach speed along +z_s, towards the object (m/s; at most the cycle's linear twist limit).
-    pressure_pa : float
-        Smoothed contact pressure that counts as contact established (Pa).
-    timeout_s : float
-        Mission-clock time allowed from the start of the leaf (s).
-    max_travel_m : float
-        Largest distance travelled along the normal (m).
     """
 
     uses = frozenset({"pressure"})
     #: A faster approach would be capped by the cycle's twist limit and its ``travelled`` would
     #: count distance the pad never moved: it is refused instead.
-    parameter_bounds = {"speed_mps": between(0.0, defaults.TWIST_LINEAR_LIMIT_MPS, low_open=True,
-                                             note=f"the pad moves at most {defaults.TWIST_LINEAR_LIMIT_MPS:g} m/s "
-                                                  "(write e.g. '10 mm/s' for millimetres per second)"),
-                        "pressure_pa": POSITIVE, "timeout_s": POSITIVE, "max_travel_m": POSITIVE}
-
-    def __init__(
-        self,
-        name: str = "approach",
-        speed_mps: float = defaults.APPROACH_SPEED_MPS,
-        pressure_pa: float = defaults.APPROACH_PRESSURE_PA,
-        timeout_s: float = 10.0,
-        max_travel_m: float = 0.1,
-    ) -> None:
-        super().__init__(name)
-        self.set_parameter("speed_mps", speed_mps)
-        self.pressure_pa = float(pressure_pa)
-        self.set_parameter("timeout_s", timeout_s)
-        self.set_parameter("max_travel_m", max_travel_m)
-        self._start = 0.0
-        self.travelled = 0.0
-
-    def set_parameter(self, name: str, value) -> None:
-        if name == "speed_mps":
-            try:
-                check_bound(name, value, self.parameter_bounds[name], "m/s")
-            except ParameterValueError as exc:
-                raise ParameterValueError(name, exc.detail, node=node_label(type(self), self.name)) from None
-        if name in ("timeout_s", "max_travel_m") and not value > 0:
-            raise ValueError(f"{self.name}: {name} must be positive, got {value}")
-        super().set_parameter(name, value if name == "name" else float(value))
+    speed_mps = Parameter(defaults.APPROACH_SPEED_MPS,
+                          bound=between(0.0, defaults.TWIST_LINEAR_LIMIT_MPS, low_open=True,
+                                        note=f"the pad moves at most {defaults.TWIST_LINEAR_LIMIT_MPS:g} m/s "
+                                             "(write e.g. '10 mm/s' for millimetres per second)"),
+                          doc="Approach speed along +z_s, towards the object (m/s; at most the cycle's linear twist "
+                              "limit).")
+    pressure_pa = Parameter(defaults.APPROACH_PRESSURE_PA, bound=POSITIVE,
+                            doc="Smoothed contact pressure that counts as contact established (Pa).")
+    timeout_s = Parameter(10.0, bound=POSITIVE, doc="Mission-clock time allowed from the start of the leaf (s).")
+    max_travel_m = Parameter(0.1, bound=POSITIVE, doc="Largest distance travelled along the normal (m).")
+    _start = 0.0
+    travelled = 0.0
 
     def initialise(self) -> None:
         self._start = self.now
@@ -110,61 +82,36 @@ class GuidedSlide(TactileBehaviour):
     when the leaf starts. With ``require_contact`` the pad only slides while in contact.
     SUCCESS after ``distance_m`` of travel or ``duration_s`` of mission time when given
     (0 = unlimited), otherwise RUNNING.
-
-    Parameters
-    ----------
-    twist : list of float
-        ``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame; elements may carry units
-        (``[0, 30 mm/s, 0, 0, 0, 10 deg/s]``).
-    twist_key : str
-        Blackboard key to read the twist from on every tick instead ("" = use ``twist``).
-    require_contact : bool
-        Slide only while in contact (otherwise wait, RUNNING).
-    distance_m : float
-        Succeed after this linear travel (m; 0 = unlimited).
-    duration_s : float
-        Succeed after this mission time (s; 0 = unlimited).
     """
 
-    fixed_parameters = frozenset({"name", "twist_key"})
-    #: ``twist`` is signed (its sign is the direction) and only has to be finite.
-    parameter_bounds = {"distance_m": NON_NEGATIVE, "duration_s": NON_NEGATIVE}
-    parameter_units = {"twist": TWIST}
+    twist = Parameter((0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0), type=Sequence[float], unit=TWIST,
+                      doc="``[vx, vy, vz, wx, wy, wz]`` in m/s and rad/s, sensor frame; elements may carry units "
+                          "(``[0, 30 mm/s, 0, 0, 0, 10 deg/s]``); signed (its sign is the direction).")
+    twist_key = Parameter("", fixed=True, doc="Blackboard key to read the twist from on every tick instead (\"\" = "
+                                              "use ``twist``).")
+    require_contact = Parameter(True, doc="Slide only while in contact (otherwise wait, RUNNING).")
+    distance_m = Parameter(0.0, bound=NON_NEGATIVE, doc="Succeed after this linear travel (m; 0 = unlimited).")
+    duration_s = Parameter(0.0, bound=NON_NEGATIVE, doc="Succeed after this mission time (s; 0 = unlimited).")
     #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
     key_parameters = {"twist_key": "twist"}
+    travelled = 0.0
+    _start = 0.0
 
-    def __init__(
-        self,
-        name: str = "guided_slide",
-        twist: Sequence[float] = (0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0),
-        twist_key: str = "",
-        require_contact: bool = True,
-        distance_m: float = 0.0,
-        duration_s: float = 0.0,
-    ) -> None:
-        super().__init__(name)
-        self.set_parameter("twist", twist)
-        self.twist_key = twist_key
-        if twist_key:
-            self._key = normalise_key(twist_key)
-            self._external = self.attach_blackboard_client(name=f"{name}/external")
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        if self.twist_key:
+            self._key = normalise_key(self.twist_key)
+            self._external = self.attach_blackboard_client(name=f"{self.name}/external")
             self._external.register_key(key=self._key, access=Access.READ)
-        self.require_contact = bool(require_contact)
-        self.distance_m = float(distance_m)
-        self.duration_s = float(duration_s)
-        self.travelled = 0.0
-        self._start = 0.0
 
-    def set_parameter(self, name: str, value) -> None:
-        if name == "twist":
-            twist = np.asarray(value, dtype=float)
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        if "twist" in changed:
+            twist = np.asarray(self.twist, dtype=float)
             if twist.shape != (6,) or not np.all(np.isfinite(twist)):
                 raise ValueError(f"{self.name}: twist must be 6 finite numbers, got {list(np.ravel(twist))!r}")
             self.twist = twist
             self._twist = tuple(float(v) for v in twist)
             self._speed = float(np.linalg.norm(twist[:3]))
-        else:
-            super().set_parameter(name, value)
 
     def initialise(self) -> None:
         self.travelled = 0.0

@@ -21,16 +21,15 @@ Layer: tree.
 from __future__ import annotations
 
 import math
-from typing import Sequence
 
 import numpy as np
 from py_trees.common import Access, Status
 
-from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.servo import Centre, Roll
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.blackboard import read, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["TableOffset", "CentreTo", "RollTo", "SquareToSlope"]
@@ -49,41 +48,24 @@ class TableOffset(TactileBehaviour):
     ``rate_mps``; as it moves, the leaf slides the pad the opposite way at the same rate, so that
     the contact stays where it is on the object and only its place on the pad changes (rolling
     to a target downhill of the contact would carry the contact downhill too).
-
-    Parameters
-    ----------
-    key : str
-        Blackboard key of the target (m, sensor frame).
-    clearance_m : float
-        Height the pad's lowest corner keeps above the table (m).
-    max_offset_m : float
-        Largest distance of the target from the pad centre (m).
-    rate_mps : float
-        Largest speed of the target on the pad (m/s).
-    smoothing_s : float
-        Time constant of the low-pass filter on the wanted target (s).
-    table_key : str
-        Blackboard key of the table's height (m, world z).
     """
 
     uses = frozenset({"cop"})
-    fixed_parameters = frozenset({"name", "key", "table_key"})
-    parameter_bounds = {"clearance_m": NON_NEGATIVE, "max_offset_m": NON_NEGATIVE, "rate_mps": POSITIVE,
-                        "smoothing_s": POSITIVE}
+    key = Parameter("/scan/cop_target", fixed=True, doc="Blackboard key of the target (m, sensor frame).")
+    clearance_m = Parameter(0.006, bound=NON_NEGATIVE, doc="Height the pad's lowest corner keeps above the table (m).")
+    max_offset_m = Parameter(0.03, bound=NON_NEGATIVE, doc="Largest distance of the target from the pad centre (m).")
+    rate_mps = Parameter(0.02, bound=POSITIVE, doc="Largest speed of the target on the pad (m/s).")
+    smoothing_s = Parameter(0.2, bound=POSITIVE, doc="Time constant of the low-pass filter on the wanted target (s).")
+    table_key = Parameter(TABLE_Z_KEY, fixed=True, doc="Blackboard key of the table's height (m, world z).")
 
-    def __init__(self, name: str = "table_offset", key: str = "/scan/cop_target", clearance_m: float = 0.006,
-                 max_offset_m: float = 0.03, rate_mps: float = 0.02, smoothing_s: float = 0.2,
-                 table_key: str = TABLE_Z_KEY) -> None:
-        super().__init__(name)
-        self.key = normalise_key(key)
-        self.table_key = normalise_key(table_key)
-        self._writer = self.attach_blackboard_client(name=f"{name}/target")
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.key = normalise_key(self.key)
+        self.table_key = normalise_key(self.table_key)
+        self._writer = self.attach_blackboard_client(name=f"{self.name}/target")
         self._writer.register_key(key=self.key, access=Access.WRITE)
-        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+        self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
-        for k, v in (("clearance_m", clearance_m), ("max_offset_m", max_offset_m), ("rate_mps", rate_mps),
-                     ("smoothing_s", smoothing_s)):
-            self.set_parameter(k, float(v))
         self.table_z_m = math.nan
         self.target = np.zeros(2)
         self._goal = np.zeros(2)
@@ -144,9 +126,13 @@ class TableOffset(TactileBehaviour):
 class _FollowKey:
     """Mixin of the servo leaves whose COP target follows a blackboard key every cycle."""
 
-    def _bind_target_key(self, name: str, target_key: str) -> None:
-        self.target_key = normalise_key(target_key)
-        self._target_client = self.attach_blackboard_client(name=f"{name}/target")
+    target_key = Parameter("/scan/cop_target", fixed=True,
+                           doc="Blackboard key of the target ``[x, y]`` (m, sensor frame).")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.target_key = normalise_key(self.target_key)
+        self._target_client = self.attach_blackboard_client(name=f"{self.name}/target")
         self._target_client.register_key(key=self.target_key, access=Access.READ)
 
     def targets(self):
@@ -160,31 +146,9 @@ class _FollowKey:
 class CentreTo(_FollowKey, Centre):
     """``centre`` with its target centre of pressure read from ``target_key`` every cycle (m,
     sensor frame; ``target_m`` while the key is not set), e.g. written by ``table_offset``.
-
-    Parameters
-    ----------
-    target_key : str
-        Blackboard key of the target ``[x, y]`` (m, sensor frame).
-    target_m : list of float
-        Target while the key is not set (m).
-    kp : float
-        Proportional gain ((m/s)/m = 1/s), both axes.
-    ki : float
-        Integral gain (1/s²).
-    kd : float
-        Derivative gain (dimensionless).
-    output_limit : float
-        Largest sliding speed per axis (m/s).
     """
 
-    fixed_parameters = frozenset({"name", "target_key"})
-
-    def __init__(self, name: str = "centre_to", target_key: str = "/scan/cop_target",
-                 target_m: Sequence[float] = (0.0, 0.0), kp: float = defaults.CENTRE_KP,
-                 ki: float = defaults.CENTRE_KI, kd: float = defaults.CENTRE_KD,
-                 output_limit: float = defaults.CENTRE_LIMIT_MPS) -> None:
-        super().__init__(name, target_m, kp, ki, kd, output_limit)
-        self._bind_target_key(name, target_key)
+    target_m = Centre.target_m.replace(doc="Target while the key is not set (m).")
 
 
 class RollTo(_FollowKey, Roll):
@@ -196,31 +160,9 @@ class RollTo(_FollowKey, Roll):
     along the normal by ``ωx·y − ωy·x`` and press the pad in or lift it off, which the force
     hold then has to undo (on a stiff object it starts oscillating). The leaf adds the opposite
     normal speed (row vz); for a contact at the centre, the paper's case, that is zero.
-
-    Parameters
-    ----------
-    target_key : str
-        Blackboard key of the target ``[x, y]`` (m, sensor frame).
-    target_m : list of float
-        Target while the key is not set (m).
-    kp : float
-        Proportional gain of the position rate ((m/s)/m = 1/s).
-    ki : float
-        Integral gain (1/s²).
-    kd : float
-        Derivative gain (dimensionless).
-    output_limit : float
-        Largest position rate per axis (m/s), i.e. ``output_limit / roll_radius`` rad/s.
     """
 
-    fixed_parameters = frozenset({"name", "target_key", "roll_radius"})
-
-    def __init__(self, name: str = "roll_to", target_key: str = "/scan/cop_target",
-                 target_m: Sequence[float] = (0.0, 0.0), kp: float = defaults.ROLL_KP,
-                 ki: float = defaults.ROLL_KI, kd: float = defaults.ROLL_KD,
-                 output_limit: float = defaults.ROLL_LIMIT_MPS) -> None:
-        super().__init__(name, target_m, kp, ki, kd, output_limit)
-        self._bind_target_key(name, target_key)
+    target_m = Roll.target_m.replace(doc="Target while the key is not set (m).")
 
     def update(self) -> Status:
         status = super().update()
@@ -251,31 +193,17 @@ class SquareToSlope(TactileBehaviour):
     round an object, the pad would otherwise wind up its wrist joint to the limit. At that
     limit it holds, a corner drifting downhill, until the downhill direction has passed the
     pad's diagonal and the edge on the other side, back within the limit, is the nearest one.
-
-    Parameters
-    ----------
-    kp : float
-        Proportional gain ((rad/s)/rad = 1/s).
-    output_limit : float
-        Largest turning rate (rad/s).
-    min_tilt_rad : float
-        Below this tilt from the vertical the pad is level enough: nothing is added (rad).
-    max_turn_rad : float
-        Largest turn about the pad normal from the start (rad, either way).
     """
 
     uses = frozenset({"cop"})
-    parameter_bounds = {"kp": NON_NEGATIVE, "output_limit": POSITIVE, "min_tilt_rad": between(0, math.pi / 2),
-                        "max_turn_rad": between(math.pi / 4, math.pi)}
-
-    def __init__(self, name: str = "square_to_slope", kp: float = 1.0, output_limit: float = 0.5,
-                 min_tilt_rad: float = math.radians(5.0), max_turn_rad: float = math.radians(120.0)) -> None:
-        super().__init__(name)
-        for k, v in (("kp", kp), ("output_limit", output_limit), ("min_tilt_rad", min_tilt_rad),
-                     ("max_turn_rad", max_turn_rad)):
-            self.set_parameter(k, float(v))
-        self.error_rad = math.nan
-        self.turned_rad = 0.0
+    kp = Parameter(1.0, bound=NON_NEGATIVE, unit="1/s", doc="Proportional gain ((rad/s)/rad = 1/s).")
+    output_limit = Parameter(0.5, bound=POSITIVE, unit="rad/s", doc="Largest turning rate (rad/s).")
+    min_tilt_rad = Parameter(math.radians(5.0), bound=between(0, math.pi / 2),
+                             doc="Below this tilt from the vertical the pad is level enough: nothing is added (rad).")
+    max_turn_rad = Parameter(math.radians(120.0), bound=between(math.pi / 4, math.pi),
+                             doc="Largest turn about the pad normal from the start (rad, either way).")
+    error_rad = math.nan
+    turned_rad = 0.0
 
     def initialise(self) -> None:
         self.turned_rad = 0.0

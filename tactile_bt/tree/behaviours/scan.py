@@ -23,6 +23,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt.tree.behaviours.base import TactileBehaviour, norm
 from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["ScanDirection", "StripeEnd", "CoverageStalled", "tangent_guidance"]
@@ -56,39 +57,25 @@ class ScanDirection(TactileBehaviour):
     tick, for ``guided_slide: {twist_key: ...}``. The direction is projected onto the pad's
     tangent plane (the plane of the sensor's x and y axes) and expressed in the sensor frame:
     ``V_ext = [vx, vy, 0, 0, 0, 0]`` with speed ``speed_mps``. RUNNING; it never finishes.
-
-    Parameters
-    ----------
-    direction : list of float
-        World direction ``[x, y, z]`` of the stripe (any length; normalised).
-    speed_mps : float
-        Sliding speed (m/s, > 0).
-    key : str
-        Blackboard key the twist is written to (m/s and rad/s, sensor frame).
     """
 
-    fixed_parameters = frozenset({"name", "key"})
-    parameter_bounds = {"speed_mps": POSITIVE}
+    direction = Parameter((1.0, 0.0, 0.0), type=Sequence[float], unit=None,
+                          doc="World direction ``[x, y, z]`` of the stripe (any length; normalised).")
+    speed_mps = Parameter(0.02, bound=POSITIVE, doc="Sliding speed (m/s, > 0).")
+    key = Parameter("/scan/guidance", fixed=True,
+                    doc="Blackboard key the twist is written to (m/s and rad/s, sensor frame).")
 
-    def __init__(self, name: str = "scan_direction", direction: Sequence[float] = (1.0, 0.0, 0.0),
-                 speed_mps: float = 0.02, key: str = "/scan/guidance") -> None:
-        super().__init__(name)
-        self.set_parameter("direction", direction)
-        self.set_parameter("speed_mps", speed_mps)
-        self.key = normalise_key(key)
-        self._writer = self.attach_blackboard_client(name=f"{name}/guidance")
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self._writer = self.attach_blackboard_client(name=f"{self.name}/guidance")
         self._writer.register_key(key=self.key, access=Access.WRITE)
         self.twist = np.zeros(6)
 
-    def set_parameter(self, name: str, value) -> None:
-        if name == "direction":
-            self.direction = _unit(self.name, value, "direction")
-        elif name == "speed_mps":
-            if not value > 0:
-                raise ValueError(f"{self.name}: speed_mps must be positive, got {value}")
-            self.speed_mps = float(value)
-        else:
-            super().set_parameter(name, value)
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        if "direction" in changed:
+            self.direction = _unit(self.name, self.direction, "direction")
+        if "key" in changed:
+            self.key = normalise_key(self.key)
 
     def guidance(self, pose: np.ndarray) -> np.ndarray:
         """The sensor-frame twist (m/s) for the pad at ``pose`` (``T_gs``)."""
@@ -125,61 +112,36 @@ class StripeEnd(TactileBehaviour):
     the contact point has travelled ``max_travel_m``; the contact point has jumped more than
     ``max_jump_m`` from one cycle to the next (the largest contact region is now another object,
     such as the table under a tilted pad). The feedback message says which.
-
-    Parameters
-    ----------
-    window_s : float
-        Time window of the stall test (s; 0 = no stall test).
-    min_travel_m : float
-        Least travel of the contact point within ``window_s`` (m).
-    max_tilt_rad : float
-        Largest angle between the outward normal and ``up`` (rad; 0 = no tilt test).
-    up : list of float
-        World direction the tilt is measured from (default: up, +z).
-    max_travel_m : float
-        Travel of the contact point after which the stripe ends (m; 0 = unlimited).
-    min_area_ratio : float
-        Contact area, as a fraction of the stripe's largest, below which the stripe ends
-        (0 = no area test).
-    max_jump_m : float
-        Largest move of the contact point from one cycle to the next (m; 0 = no jump test).
-    max_turn_rad : float
-        Largest turn of the pad normal from its direction at the start of the stripe (rad;
-        0 = no turn test): a short step that rolls the pad over an edge ends here.
-    edge_turn_rad : float
-        Least turn of the pad normal within ``window_s`` that the edge test judges (rad; 0 = no
-        edge test).
-    edge_radius_m : float
-        A turn at a radius of curvature below this is an edge (m).
-    result : str
-        Status at the end of the surface: ``success`` ends the stripe; ``failure`` fails it, so
-        that a step between stripes which finds no more surface stops a ``repeat`` of stripes
-        (catch it with a ``selector``).
     """
 
     uses = frozenset({"cop"})
-    fixed_parameters = frozenset({"name", "result"})
-    parameter_bounds = {"window_s": NON_NEGATIVE, "min_travel_m": NON_NEGATIVE, "max_tilt_rad": between(0, math.pi),
-                        "max_travel_m": NON_NEGATIVE, "min_area_ratio": between(0, 1, high_open=True),
-                        "max_jump_m": NON_NEGATIVE, "max_turn_rad": between(0, math.pi),
-                        "edge_turn_rad": between(0, math.pi), "edge_radius_m": NON_NEGATIVE}
+    window_s = Parameter(1.0, bound=NON_NEGATIVE, doc="Time window of the stall test (s; 0 = no stall test).")
+    min_travel_m = Parameter(0.004, bound=NON_NEGATIVE, doc="Least travel of the contact point within ``window_s`` (m).")
+    max_tilt_rad = Parameter(0.0, bound=between(0, math.pi),
+                             doc="Largest angle between the outward normal and ``up`` (rad; 0 = no tilt test).")
+    up = Parameter((0.0, 0.0, 1.0), type=Sequence[float], unit=None,
+                   doc="World direction the tilt is measured from (default: up, +z).")
+    max_travel_m = Parameter(0.0, bound=NON_NEGATIVE,
+                             doc="Travel of the contact point after which the stripe ends (m; 0 = unlimited).")
+    min_area_ratio = Parameter(0.0, bound=between(0, 1, high_open=True), unit=None,
+                               doc="Contact area, as a fraction of the stripe's largest, below which the stripe ends "
+                                   "(0 = no area test).")
+    max_jump_m = Parameter(0.0, bound=NON_NEGATIVE,
+                           doc="Largest move of the contact point from one cycle to the next (m; 0 = no jump test).")
+    max_turn_rad = Parameter(0.0, bound=between(0, math.pi),
+                             doc="Largest turn of the pad normal from its direction at the start of the stripe (rad; "
+                                 "0 = no turn test): a short step that rolls the pad over an edge ends here.")
+    edge_turn_rad = Parameter(0.0, bound=between(0, math.pi),
+                              doc="Least turn of the pad normal within ``window_s`` that the edge test judges (rad; "
+                                  "0 = no edge test).")
+    edge_radius_m = Parameter(0.01, bound=NON_NEGATIVE, doc="A turn at a radius of curvature below this is an edge (m).")
+    result = Parameter("success", type=Literal["success", "failure"], fixed=True,
+                       doc="Status at the end of the surface: ``success`` ends the stripe; ``failure`` fails it, so "
+                           "that a step between stripes which finds no more surface stops a ``repeat`` of stripes "
+                           "(catch it with a ``selector``).")
 
-    def __init__(self, name: str = "stripe_end", window_s: float = 1.0, min_travel_m: float = 0.004,
-                 max_tilt_rad: float = 0.0, up: Sequence[float] = (0.0, 0.0, 1.0),
-                 max_travel_m: float = 0.0, min_area_ratio: float = 0.0, max_jump_m: float = 0.0,
-                 max_turn_rad: float = 0.0, edge_turn_rad: float = 0.0, edge_radius_m: float = 0.01,
-                 result: Literal["success", "failure"] = "success") -> None:
-        super().__init__(name)
-        if result not in ("success", "failure"):
-            raise ValueError(f"{name}: result must be 'success' or 'failure', got {result!r}")
-        self.result = result
-        self._end = Status.SUCCESS if result == "success" else Status.FAILURE
-        for key, value in (("window_s", window_s), ("min_travel_m", min_travel_m),
-                           ("max_tilt_rad", max_tilt_rad), ("up", up), ("max_travel_m", max_travel_m),
-                           ("min_area_ratio", min_area_ratio), ("max_jump_m", max_jump_m),
-                           ("max_turn_rad", max_turn_rad), ("edge_turn_rad", edge_turn_rad),
-                           ("edge_radius_m", edge_radius_m)):
-            self.set_parameter(key, value)
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
         self._max_area = 0
         self._small_since: float | None = None
         self._min_cos = -2.0
@@ -192,26 +154,14 @@ class StripeEnd(TactileBehaviour):
         #: ("" while it runs).
         self.cause = ""
 
-    def set_parameter(self, name: str, value) -> None:
-        if name == "up":
-            self.up = _unit(self.name, value, "up")
-            return
-        if name == "min_area_ratio" and not 0.0 <= value < 1.0:
-            raise ValueError(f"{self.name}: min_area_ratio must be in [0, 1), got {value}")
-        if name in ("window_s", "min_travel_m", "max_tilt_rad", "max_travel_m", "min_area_ratio", "max_jump_m",
-                    "max_turn_rad", "edge_turn_rad", "edge_radius_m"):
-            if not value >= 0:
-                raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
-            if name in ("max_tilt_rad", "max_turn_rad", "edge_turn_rad") and value > math.pi:
-                raise ValueError(f"{self.name}: {name} must be at most π, got {value}")
-            value = float(value)
-            if name == "max_tilt_rad":
-                self._cos_tilt = math.cos(value) if value > 0 else -2.0
-            if name == "max_turn_rad":
-                self._cos_turn = math.cos(value)
-            if name == "edge_turn_rad":
-                self._cos_edge = math.cos(value)
-        super().set_parameter(name, value)
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        if "up" in changed:
+            self.up = _unit(self.name, self.up, "up")
+        if "result" in changed:
+            self._end = Status.SUCCESS if self.result == "success" else Status.FAILURE
+        self._cos_tilt = math.cos(self.max_tilt_rad) if self.max_tilt_rad > 0 else -2.0
+        self._cos_turn = math.cos(self.max_turn_rad)
+        self._cos_edge = math.cos(self.edge_turn_rad)
 
     def initialise(self) -> None:
         self.cause = ""
@@ -338,37 +288,22 @@ class CoverageStalled(TactileBehaviour):
     times its size in new samples within the last ``window_s`` of mission time; RUNNING before.
     With voxel thinning (``record_contacts: {voxel_m: ...}``) the cloud's size is a measure of
     the area covered, so this ends a scan that only passes over places it has already touched.
-
-    Parameters
-    ----------
-    window_s : float
-        Time window (s, > 0); the leaf cannot succeed before it has run this long.
-    min_growth : float
-        Least relative growth of the cloud within the window (0.02 = 2 %).
-    min_samples : int
-        The cloud must hold at least this many samples before the test applies.
     """
 
-    parameter_bounds = {"window_s": POSITIVE, "min_growth": NON_NEGATIVE, "min_samples": NON_NEGATIVE}
+    window_s = Parameter(10.0, bound=POSITIVE,
+                         doc="Time window (s, > 0); the leaf cannot succeed before it has run this long.")
+    min_growth = Parameter(0.02, bound=NON_NEGATIVE, unit=None,
+                           doc="Least relative growth of the cloud within the window (0.02 = 2 %).")
+    min_samples = Parameter(100, bound=NON_NEGATIVE, unit=None,
+                            doc="The cloud must hold at least this many samples before the test applies.")
     #: Its SUCCESS ends a scan: the mission reports its message as the reason.
     reports_success = True
+    _start = 0.0
+    _size = 0
 
-    def __init__(self, name: str = "coverage_stalled", window_s: float = 10.0, min_growth: float = 0.02,
-                 min_samples: int = 100) -> None:
-        super().__init__(name)
-        self.set_parameter("window_s", window_s)
-        self.set_parameter("min_growth", min_growth)
-        self.set_parameter("min_samples", min_samples)
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
         self._history: collections.deque = collections.deque()
-        self._start = 0.0
-        self._size = 0
-
-    def set_parameter(self, name: str, value) -> None:
-        if name == "window_s" and not value > 0:
-            raise ValueError(f"{self.name}: window_s must be positive, got {value}")
-        if name in ("min_growth", "min_samples") and not value >= 0:
-            raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
-        super().set_parameter(name, int(value) if name == "min_samples" else float(value) if name != "name" else value)
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)

@@ -39,6 +39,7 @@ from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, read, write
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import POSITIVE, between, normalise_key
 
 __all__ = ["ContactStiffness", "AdaptForceTarget", "FORCE_TARGET_KEY", "STIFFNESS_KEY"]
@@ -128,65 +129,46 @@ class AdaptForceTarget(TactileBehaviour):
     ``estimate_key``, every cycle; RUNNING. Run it beside the whole task (from before the
     approach) so that it sees the first contact loaded, and give ``force_hold`` the same key as
     its ``target_key``.
-
-    Parameters
-    ----------
-    target_pa : float
-        The tree's pressure target (Pa): the adapted target never exceeds it.
-    floor_pa : float
-        Lowest adapted target (Pa): below it the contact is too faint to servo on.
-    give_share : float
-        Share of what the object can give that the target may use (0–1).
-    max_indentation_m : float
-        What an object is taken to give before the pad reaches something hard, where the table
-        below is farther (m).
-    min_travel_m : float
-        Indentation of a contact before its stiffness counts (m).
-    rise_pa_per_s : float
-        Fastest rise of the adapted target (Pa/s); it falls at once.
-    key : str
-        Blackboard key of the adapted target (Pa).
-    estimate_key : str
-        Blackboard key of the estimated stiffness (Pa/m).
-    table_key : str
-        Blackboard key of the table's height (m, world z; absent or NaN: no table).
     """
 
     uses = frozenset({"pressure"})
-    fixed_parameters = frozenset({"name", "key", "estimate_key", "table_key"})
-    parameter_units = {"rise_pa_per_s": "Pa/s"}
-    parameter_bounds = {"target_pa": POSITIVE, "floor_pa": POSITIVE, "give_share": between(0, 1, low_open=True),
-                        "max_indentation_m": POSITIVE, "min_travel_m": POSITIVE, "rise_pa_per_s": POSITIVE}
+    target_pa = Parameter(defaults.TARGET_PRESSURE_PA, bound=POSITIVE,
+                          doc="The tree's pressure target (Pa): the adapted target never exceeds it.")
+    floor_pa = Parameter(defaults.FORCE_TARGET_FLOOR_PA, bound=POSITIVE,
+                         doc="Lowest adapted target (Pa): below it the contact is too faint to servo on.")
+    give_share = Parameter(defaults.STIFFNESS_GIVE_SHARE, bound=between(0, 1, low_open=True), unit=None,
+                           doc="Share of what the object can give that the target may use (0–1).")
+    max_indentation_m = Parameter(defaults.STIFFNESS_MAX_INDENTATION_M, bound=POSITIVE,
+                                  doc="What an object is taken to give before the pad reaches something hard, where "
+                                      "the table below is farther (m).")
+    min_travel_m = Parameter(defaults.STIFFNESS_MIN_TRAVEL_M, bound=POSITIVE,
+                             doc="Indentation of a contact before its stiffness counts (m).")
+    rise_pa_per_s = Parameter(defaults.FORCE_TARGET_RISE_PA_PER_S, bound=POSITIVE, unit="Pa/s",
+                              doc="Fastest rise of the adapted target (Pa/s); it falls at once.")
+    key = Parameter(FORCE_TARGET_KEY, fixed=True, doc="Blackboard key of the adapted target (Pa).")
+    estimate_key = Parameter(STIFFNESS_KEY, fixed=True, doc="Blackboard key of the estimated stiffness (Pa/m).")
+    table_key = Parameter(TABLE_Z_KEY, fixed=True,
+                          doc="Blackboard key of the table's height (m, world z; absent or NaN: no table).")
 
-    def __init__(self, name: str = "adapt_force_target", target_pa: float = defaults.TARGET_PRESSURE_PA,
-                 floor_pa: float = defaults.FORCE_TARGET_FLOOR_PA, give_share: float = defaults.STIFFNESS_GIVE_SHARE,
-                 max_indentation_m: float = defaults.STIFFNESS_MAX_INDENTATION_M,
-                 min_travel_m: float = defaults.STIFFNESS_MIN_TRAVEL_M,
-                 rise_pa_per_s: float = defaults.FORCE_TARGET_RISE_PA_PER_S, key: str = FORCE_TARGET_KEY,
-                 estimate_key: str = STIFFNESS_KEY, table_key: str = TABLE_Z_KEY) -> None:
-        super().__init__(name)
-        self.target_pa = float(target_pa)
-        self.floor_pa = float(floor_pa)
-        if not self.floor_pa <= self.target_pa:
-            raise ValueError(f"{name}: floor_pa ({self.floor_pa:g} Pa) must not exceed target_pa "
-                             f"({self.target_pa:g} Pa)")
-        self.give_share = float(give_share)
-        self.max_indentation_m = float(max_indentation_m)
-        self.min_travel_m = float(min_travel_m)
-        self.rise_pa_per_s = float(rise_pa_per_s)
-        self.key, self.estimate_key = normalise_key(key), normalise_key(estimate_key)
-        self.table_key = normalise_key(table_key)
-        self._writer = self.attach_blackboard_client(name=f"{name}/target")
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.key, self.estimate_key = normalise_key(self.key), normalise_key(self.estimate_key)
+        self.table_key = normalise_key(self.table_key)
+        self._writer = self.attach_blackboard_client(name=f"{self.name}/target")
         for k in (self.key, self.estimate_key):
             self._writer.register_key(key=k, access=Access.WRITE)
         self._writer.register_key(key=self.table_key, access=Access.READ)
         self.estimator = ContactStiffness(self.min_travel_m)
-        self.target = self.target_pa
+        self.target = self.lowest_target_pa = self.target_pa
         self.give_m = self.max_indentation_m
-        self.lowest_target_pa = self.target_pa
         self.table_z_m = math.nan
         write(self.key, self.target)
         write(self.estimate_key, math.nan)
+
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        if changed & {"floor_pa", "target_pa"} and not self.floor_pa <= self.target_pa:
+            raise ValueError(f"{self.name}: floor_pa ({self.floor_pa:g} Pa) must not exceed target_pa "
+                             f"({self.target_pa:g} Pa)")
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)

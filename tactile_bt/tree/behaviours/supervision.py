@@ -46,9 +46,9 @@ class SupervisorRetreat(TactileBehaviour):
     retreats and ends the mission whether or not a tree has this guard.
     """
 
-    def __init__(self, name: str = "supervisor_retreat") -> None:
-        super().__init__(name)
-        self.supervisor = self.attach_blackboard_client(name=f"{name}/supervisor", namespace=SUPERVISOR_NAMESPACE)
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.supervisor = self.attach_blackboard_client(name=f"{self.name}/supervisor", namespace=SUPERVISOR_NAMESPACE)
         for key in ("retreating", "reason"):
             self.supervisor.register_key(key=key, access=Access.READ)
 

@@ -26,6 +26,7 @@ from py_trees.common import Access, Status
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
 
 __all__ = ["TABLE_ALARM_KEY", "TABLE_Z_KEY", "TableClearance", "pad_clearance", "lowest_corner", "table_height", "write_table_height"]
@@ -88,43 +89,25 @@ class TableClearance(TactileBehaviour):
     (``frontier_guidance`` does). It fails when the corner stays below the limit longer than
     ``recover_s``, when it comes below ``hit_m`` (the pad touches the table), or at the
     ``max_trips``-th trip.
-
-    Parameters
-    ----------
-    min_clearance_m : float
-        Least height of the lowest corner above the table (m; may be negative to allow the
-        corner to press into a soft table cover).
-    margin_m : float
-        Width of the pad's frame around the sensing area (m).
-    recover_s : float
-        Time the corner may stay below ``min_clearance_m`` while the tree backs off (s; 0: no
-        recovery, the guard fails at once).
-    hit_m : float
-        With recovery, the guard fails at once below this height of the corner (m; at most
-        ``min_clearance_m``).
-    max_trips : int
-        With recovery, the guard fails at this trip (0: any number).
-    table_key : str
-        Blackboard key of the table's height (m, world z).
-    alarm_key : str
-        Blackboard key of the alarm (see above).
     """
 
-    fixed_parameters = frozenset({"name", "table_key", "alarm_key"})
-    parameter_bounds = {"margin_m": NON_NEGATIVE, "recover_s": NON_NEGATIVE, "max_trips": NON_NEGATIVE}
+    min_clearance_m = Parameter(0.001, doc="Least height of the lowest corner above the table (m; may be negative to "
+                                           "allow the corner to press into a soft table cover).")
+    margin_m = Parameter(0.0, bound=NON_NEGATIVE, doc="Width of the pad's frame around the sensing area (m).")
+    recover_s = Parameter(0.0, bound=NON_NEGATIVE,
+                          doc="Time the corner may stay below ``min_clearance_m`` while the tree backs off (s; 0: no "
+                              "recovery, the guard fails at once).")
+    hit_m = Parameter(0.0, doc="With recovery, the guard fails at once below this height of the corner (m; at most "
+                               "``min_clearance_m``).")
+    max_trips = Parameter(0, bound=NON_NEGATIVE, unit=None, doc="With recovery, the guard fails at this trip (0: any number).")
+    table_key = Parameter(TABLE_Z_KEY, fixed=True, doc="Blackboard key of the table's height (m, world z).")
+    alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True, doc="Blackboard key of the alarm (see above).")
 
-    def __init__(self, name: str = "table_clearance", min_clearance_m: float = 0.001, margin_m: float = 0.0,
-                 recover_s: float = 0.0, hit_m: float = 0.0, max_trips: int = 0, table_key: str = TABLE_Z_KEY,
-                 alarm_key: str = TABLE_ALARM_KEY) -> None:
-        super().__init__(name)
-        self.set_parameter("min_clearance_m", min_clearance_m)
-        self.set_parameter("margin_m", margin_m)
-        self.set_parameter("recover_s", recover_s)
-        self.set_parameter("hit_m", hit_m)
-        self.set_parameter("max_trips", max_trips)
-        self.table_key = normalise_key(table_key)
-        self.alarm_key = normalise_key(alarm_key)
-        self._setup = self.attach_blackboard_client(name=f"{name}/setup")
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.table_key = normalise_key(self.table_key)
+        self.alarm_key = normalise_key(self.alarm_key)
+        self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self._setup.register_key(key=self.alarm_key, access=Access.WRITE)
         self.table_z_m = math.nan
@@ -132,19 +115,6 @@ class TableClearance(TactileBehaviour):
         #: Trips since the guard started, and the mission time (s) of the current one (None: clear).
         self.trips = 0
         self._tripped_at: float | None = None
-
-    def set_parameter(self, name: str, value) -> None:
-        if name in ("min_clearance_m", "hit_m") and not math.isfinite(value):
-            raise ValueError(f"{self.name}: {name} must be finite, got {value}")
-        if name in ("margin_m", "recover_s", "max_trips") and not value >= 0:
-            raise ValueError(f"{self.name}: {name} must not be negative, got {value}")
-        if name == "max_trips":
-            if value != int(value):
-                raise ValueError(f"{self.name}: max_trips must be a whole number, got {value}")
-            value = int(value)
-        elif name in ("min_clearance_m", "margin_m", "recover_s", "hit_m"):
-            value = float(value)
-        super().set_parameter(name, value)
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
