@@ -147,7 +147,8 @@ def force_figures(log: dict, factor: float = defaults.FORCE_FIGURE_PRESSURE_FACT
     Returns
     -------
     dict
-        ``held_s`` (time a pressure target was held, s), ``target_min_pa`` / ``target_max_pa``
+        ``approach_end_s`` (the first cycle a target was held, s; None: never), ``held_s`` (time a
+        pressure target was held, s), ``target_min_pa`` / ``target_max_pa``
         (its range, Pa), ``over_s`` (time above ``factor`` × target, s), ``longest_over_s``
         (its longest run, s), ``over_share`` (``over_s / held_s``), ``peak_ratio`` (largest
         pressure / target), ``peak_force_n`` (largest force after the approach, N),
@@ -157,9 +158,12 @@ def force_figures(log: dict, factor: float = defaults.FORCE_FIGURE_PRESSURE_FACT
     t = np.asarray(log["t"], dtype=float)
     error = np.asarray(log["error_pressure_pa"], dtype=float)
     held = np.isfinite(error)
-    empty = {"held_s": 0.0, "target_min_pa": None, "target_max_pa": None, "over_s": 0.0, "longest_over_s": 0.0,
+    empty = {"approach_end_s": None, "held_s": 0.0, "target_min_pa": None, "target_max_pa": None, "over_s": 0.0,
+             "longest_over_s": 0.0,
              "over_share": 0.0, "peak_ratio": None, "peak_force_n": 0.0, "chatter_per_s": [0.0] * 6, "ok": True}
     if not held.any():
+        empty["peak_force_n"] = float(np.nanmax(np.asarray(log["force_n"], dtype=float), initial=0.0))
+        empty["ok"] = empty["peak_force_n"] <= force_cap_n
         return empty
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     pressure = np.asarray(log["pressure_pa"], dtype=float)
@@ -170,6 +174,7 @@ def force_figures(log: dict, factor: float = defaults.FORCE_FIGURE_PRESSURE_FACT
     longest = longest_run(t, over)
     peak_force = float(force.max()) if len(force) else 0.0
     return {
+        "approach_end_s": float(t[np.argmax(held)]),
         "held_s": float(held.sum() * dt),
         "target_min_pa": float(np.min(target[held])),
         "target_max_pa": float(np.max(target[held])),
