@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from py_trees.common import Status
 
 from tactile_bt import defaults
 from tactile_bt.control.spatial import make_pose
@@ -38,9 +39,11 @@ def press(harness, surface_m: float, stiffness_pa_per_m: float, onset_pa: float 
         depth = surface_m - z
         harness.set_pose(pad_at(z))
         if depth <= 0.0:
-            harness.tick(make_features(in_contact=False))
+            status = harness.tick(make_features(in_contact=False))
         else:
-            harness.tick(make_features(pressure=onset_pa + stiffness_pa_per_m * depth))
+            status = harness.tick(make_features(pressure=onset_pa + stiffness_pa_per_m * depth))
+        if status == Status.FAILURE:
+            return
 
 
 def test_the_secant_of_a_loaded_contact_is_its_stiffness_and_is_held_once_loaded():
@@ -97,3 +100,16 @@ def test_force_hold_follows_the_target_key_every_cycle():
     assert harness.command.errors["pressure_pa"] == pytest.approx(400.0)
     harness.set(FORCE_TARGET_KEY, None)  # no number: its own target_pa
     assert hold.current_target() == 2000.0
+
+
+def test_an_object_that_cannot_carry_the_floor_fails_the_leaf_and_says_so():
+    harness = LeafHarness(AdaptForceTarget(target_pa=2000.0, floor_pa=500.0, give_share=0.5))
+    harness.set("/setup/table_z_m", 0.0)
+    press(harness, surface_m=0.002, stiffness_pa_per_m=5e4, seconds=0.25)  # 1 mm in: 400 Pa
+    assert harness.behaviour.status == Status.FAILURE
+    assert harness.behaviour.feedback_message.startswith("too soft to carry 500 Pa: 5e+04 Pa/m carries 40")
+    assert "50% of the 1.9" in harness.behaviour.feedback_message  # the 2 mm cable, touched a little in
+    relaxed = LeafHarness(AdaptForceTarget(target_pa=2000.0, floor_pa=500.0, fail_below_floor=False))
+    relaxed.set("/setup/table_z_m", 0.0)
+    press(relaxed, surface_m=0.002, stiffness_pa_per_m=5e4, seconds=0.25)
+    assert relaxed.behaviour.status != Status.FAILURE and read_or(FORCE_TARGET_KEY) == 500.0

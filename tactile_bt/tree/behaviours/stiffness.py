@@ -22,8 +22,11 @@ What the object can give before the pad reaches something hard is ``max_indentat
 less when the set-up's table (``/setup/table_z_m``) lies closer below the contact along the pad
 normal, from where the contact began. The contact carries ``p0 + k · give_share · give`` within
 ``give_share`` of that; when this is less than ``target_pa`` it becomes the target, never
-below ``floor_pa``. A lowered target rises again (at most
-``rise_pa_per_s``) when a later contact shows a stiffer object.
+below ``floor_pa``. A lowered target rises again (at most ``rise_pa_per_s``) when a later
+contact shows a stiffer object. An object that does not carry even ``floor_pa`` within that
+share, once the pad has pressed that far into it, is too soft to servo on: with
+``fail_below_floor`` the leaf then fails and says so, which ends a task it runs beside with an
+honest ``failure`` rather than a servo on a contact too faint to follow.
 
 Layer: tree.
 """
@@ -145,6 +148,8 @@ class AdaptForceTarget(TactileBehaviour):
                              doc="Indentation of a contact before its stiffness counts (m).")
     rise_pa_per_s = Parameter(defaults.FORCE_TARGET_RISE_PA_PER_S, bound=POSITIVE, unit="Pa/s",
                               doc="Fastest rise of the adapted target (Pa/s); it falls at once.")
+    fail_below_floor = Parameter(True, doc="Fail when the object does not carry ``floor_pa`` within ``give_share`` of "
+                                           "what it gives, once the pad has pressed that far.")
     key = Parameter(FORCE_TARGET_KEY, fixed=True, doc="Blackboard key of the adapted target (Pa).")
     estimate_key = Parameter(STIFFNESS_KEY, fixed=True, doc="Blackboard key of the estimated stiffness (Pa/m).")
     table_key = Parameter(TABLE_Z_KEY, fixed=True,
@@ -198,8 +203,16 @@ class AdaptForceTarget(TactileBehaviour):
         estimator = self.estimator
         if estimator.update(bool(f.in_contact), float(f.pressure), T, 0.9 * self.target):
             self.give_m = self._give(f, T)
-        wanted = carried_target(self.target_pa, self.floor_pa, estimator.stiffness_pa_per_m, estimator.onset_pa,
-                                self.give_m, self.give_share)
+        k = estimator.stiffness_pa_per_m
+        wanted = carried_target(self.target_pa, self.floor_pa, k, estimator.onset_pa, self.give_m, self.give_share)
+        allowed = self.give_share * self.give_m
+        if self.fail_below_floor and f.in_contact and estimator.indentation_m >= allowed:
+            carried = estimator.onset_pa + k * allowed if k > 0.0 else math.nan
+            if carried < self.floor_pa:
+                self.feedback_message = (f"too soft to carry {self.floor_pa:.0f} Pa: {k:.3g} Pa/m carries "
+                                         f"{carried:.0f} Pa within {allowed * 1e3:.2f} mm, {self.give_share:.0%} of "
+                                         f"the {self.give_m * 1e3:.2f} mm it gives")
+                return Status.FAILURE
         if wanted > self.target:
             wanted = min(wanted, self.target + self.rise_pa_per_s * self.dt)
         self.target = wanted
