@@ -98,8 +98,9 @@ RECORD_MAX_PRESSURE_RATIO: float = 2.0
 RECORD_MIN_PRESSURE_RATIO: float = 0.25
 #: ... while contact outside the largest region carries at most this share of its force ...
 RECORD_OTHER_REGION_SHARE: float = 0.2
-#: ... and while the pad moves into the object along its normal at most this fast (m/s).
-RECORD_MAX_APPROACH_MPS: float = 0.005
+#: ... and while the pad moves into the object along its normal at most this fast (m/s): the
+#: approach's speed. The force servo's own corrections on a curved surface reach a few mm/s.
+RECORD_MAX_APPROACH_MPS: float = 0.01
 
 #: Approach: speed along the pad normal (m/s) and the pressure that ends it (Pa).
 APPROACH_SPEED_MPS: float = 0.01

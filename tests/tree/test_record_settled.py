@@ -52,13 +52,24 @@ def test_a_pad_bridging_a_hollow_records_nothing():
 
 
 def test_a_pad_still_moving_into_the_object_records_nothing():
-    h = LeafHarness(RecordContacts(max_approach_mps=0.005), dt=DT, pose=make_pose(DOWN, (0.0, 0.0, 0.05)))
-    for k, speed in enumerate((0.0, 0.002, 0.01, -0.01)):  # m/s along the pad normal (world -z)
-        h.set_pose(make_pose(DOWN, (0.0, 0.0, 0.05 - speed * DT * (k + 1))))
-        h.tick(make_features())
-    # the first cycle has no speed yet; then 2 mm/s passes, 10 mm/s into the object does not,
-    # backing off does
-    assert [round(t / DT) for t in h.contacts.data[:, 7]] == [0, 1, 3]
+    h = LeafHarness(RecordContacts(max_approach_mps=0.01), dt=DT)
+    z = 0.05
+
+    def run(speed_mps: float, cycles: int) -> int:
+        """Cycles recorded while the pad moves along its normal (world -z) at ``speed_mps``."""
+        nonlocal z
+        before = len(h.contacts)
+        for _ in range(cycles):
+            z -= speed_mps * DT
+            h.set_pose(make_pose(DOWN, (0.0, 0.0, z)))
+            h.tick(make_features())
+        return len(h.contacts) - before
+
+    assert run(0.005, 50) == 50  # slower than the limit: every cycle
+    pressing = run(0.03, 50)
+    assert pressing < 10  # 30 mm/s into the object: nothing once the averaged speed passes 10 mm/s
+    assert "pressing in at" in h.behaviour.feedback_message
+    assert run(-0.03, 50) > 40  # backing off records again
 
 
 def test_an_imprint_keeps_only_the_points_pressed_within_the_limit():

@@ -202,7 +202,7 @@ class RecordContacts(TactileBehaviour):
                                        "(inf: never check).")
     max_approach_mps = Parameter(defaults.RECORD_MAX_APPROACH_MPS, bound=POSITIVE_OR_INF,
                                  doc="Record only while the pad moves into the object along its normal at most this "
-                                     "fast (m/s; inf: never check).")
+                                     "fast (m/s, averaged over the features' smoothing window; inf: never check).")
     nominal_pa = Parameter(defaults.TARGET_PRESSURE_PA, bound=POSITIVE,
                            doc="The pressure target (Pa) while ``target_key`` holds none.")
     target_key = Parameter(FORCE_TARGET_KEY, fixed=True,
@@ -221,6 +221,7 @@ class RecordContacts(TactileBehaviour):
         if self.target_key:
             self._setup.register_key(key=self.target_key, access=Access.READ)
         self._position: np.ndarray | None = None  # the pad's position last cycle (m, world)
+        self._speed = 0.0  # its speed into the object along the normal, low-passed (m/s)
         self.skipped = 0  # cycles in contact not recorded because the contact was not settled
 
     def parameters_changed(self, changed: frozenset[str]) -> None:
@@ -317,14 +318,18 @@ class RecordContacts(TactileBehaviour):
         return self.nominal_pa
 
     def _approach_speed(self, T: np.ndarray) -> float:
-        """The pad's speed into the object along its normal since last cycle (m/s)."""
+        """The pad's speed into the object along its normal (m/s), averaged over the features'
+        smoothing window (``defaults.SMOOTHING_SAMPLES`` cycles, low-passed)."""
         position = T[:3, 3]
         previous, self._position = self._position, position.copy()
         if previous is None:
+            self._speed = 0.0
             return 0.0
         n = T[:3, 2]
         step = position - previous
-        return float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2]) / self.dt
+        speed = float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2]) / self.dt
+        self._speed += (speed - self._speed) / defaults.SMOOTHING_SAMPLES
+        return self._speed
 
     def _unsettled(self, f, target: float, approach_mps: float) -> str:
         """Why the contact of ``f`` is not settled ("" when it is)."""
