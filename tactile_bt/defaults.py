@@ -76,7 +76,7 @@ STIFFNESS_MIN_TRAVEL_M: float = 0.0002
 #: Fastest rise of a lowered pressure target when a stiffer contact is found (Pa/s).
 FORCE_TARGET_RISE_PA_PER_S: float = 1000.0
 
-# --- Chatter of the servo leaves (tactile_bt.control.servo.ChatterDamper) ---------------------
+# --- Chatter of the servo leaves (tactile_bt.control.chatter.ChatterDamper) ---------------------
 #: A sign change of a servo output between two cycles counts as chatter when it jumps by at
 #: least this share of the output limit ...
 SERVO_CHATTER_JUMP_SHARE: float = 0.5

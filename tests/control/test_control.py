@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from tactile_bt.control.chatter import ChatterDamper
 from tactile_bt.control.servo import (
-    ChatterDamper,
     PID,
     PROJECTIONS,
     ServoCommand,

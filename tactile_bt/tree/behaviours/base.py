@@ -22,7 +22,8 @@ from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.declaration import REQUIRED, Parameter, Parameterised
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, resolve_references
-from tactile_bt.control.servo import PID, ChatterDamper, feature_error, feature_errors_of, inverse_task_jacobian, per_component
+from tactile_bt.control.chatter import ChatterDamper
+from tactile_bt.control.servo import PID, feature_error, feature_errors_of, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
 
@@ -199,7 +200,7 @@ class ServoLeaf(TactileBehaviour):
 
     Every servo leaf damps chatter the same way: an output that switches sign with a large jump
     tick after tick (a flat pad over a ridge or bridging a concave surface) has its gain
-    reduced and is low-passed until it stops (:class:`~tactile_bt.control.servo.ChatterDamper`,
+    reduced and is low-passed until it stops (:class:`~tactile_bt.control.chatter.ChatterDamper`,
     the ``chatter_*`` parameters, defaults ``defaults.SERVO_CHATTER_*``); an output that does
     not chatter passes unchanged.
     """
