@@ -73,6 +73,9 @@ STIFFNESS_GIVE_SHARE: float = 0.5
 STIFFNESS_MAX_INDENTATION_M: float = 0.005
 #: Indentation of a contact before its stiffness estimate counts (m).
 STIFFNESS_MIN_TRAVEL_M: float = 0.0002
+#: Rise of the pressure of a contact before its stiffness estimate counts (Pa): several times the
+#: noise of the unsmoothed pressure of a small contact.
+STIFFNESS_MIN_RISE_PA: float = 0.05 * TARGET_PRESSURE_PA
 #: Fastest rise of a lowered pressure target when a stiffer contact is found (Pa/s).
 FORCE_TARGET_RISE_PA_PER_S: float = 1000.0
 

@@ -23,10 +23,11 @@ less when the set-up's table (``/setup/table_z_m``) lies closer below the contac
 normal, from where the contact began. The contact carries ``p0 + k · give_share · give`` within
 ``give_share`` of that; when this is less than ``target_pa`` it becomes the target, never
 below ``floor_pa``. A lowered target rises again (at most ``rise_pa_per_s``) when a later
-contact shows a stiffer object. An object that does not carry even ``floor_pa`` within that
-share, once the pad has pressed that far into it, is too soft to servo on: with
+contact shows a stiffer object. An object whose smoothed pressure is still below ``floor_pa``
+when the pad has pressed that share of its give into it is too soft to servo on: with
 ``fail_below_floor`` the leaf then fails and says so, which ends a task it runs beside with an
-honest ``failure`` rather than a servo on a contact too faint to follow.
+honest ``failure`` rather than a servo on a contact too faint to follow; without, the target
+becomes ``floor_pa``.
 
 Layer: tree.
 """
@@ -34,6 +35,7 @@ Layer: tree.
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import numpy as np
 from py_trees.common import Access, Status
@@ -41,7 +43,7 @@ from py_trees.common import Access, Status
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
-from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, read, write
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, POSE, read, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import POSITIVE, between, normalise_key
 
@@ -56,47 +58,70 @@ STIFFNESS_KEY = "/force/stiffness_pa_per_m"
 class ContactStiffness:
     """Secant contact stiffness per contact (the module's docstring), fed one cycle at a time.
 
+    A contact's secant counts once the pad has pressed ``min_travel_m`` into it and the pressure
+    has risen by ``min_rise_pa``; it is kept when the contact is loaded (the pressure reaches the
+    loaded pressure), and dropped when the contact is lost before: a contact that flickers at an
+    edge of the object, the pad moving on while it fades, is no measurement of its stiffness. A
+    contact loaded before ``min_travel_m`` is stiffer than its secant at ``min_travel_m``, which
+    is kept as its estimate.
+
     Parameters
     ----------
     min_travel_m : float
         Indentation (m) from the start of the contact before a secant counts.
+    min_rise_pa : float
+        Rise of the pressure (Pa) from the start of the contact before a secant counts.
 
     Attributes
     ----------
     stiffness_pa_per_m : float
-        The estimate (Pa/m): of the contact under way once loaded past ``min_travel_m``, else of
-        the last contact that was; NaN before any.
-    indentation_m : float
-        The pad's travel along its normal since the contact began (m).
+        The estimate (Pa/m): of the contact under way while it is loaded, else of the last
+        contact that was loaded; NaN before any.
     onset_pa : float
-        The pressure when the contact began (Pa): the contact threshold already carries some.
+        The pressure when that contact began (Pa): the contact threshold already carries some.
+    give_m : float
+        What that contact could give (m), as given when it began.
+    indentation_m : float
+        The pad's travel along its normal since the contact under way began (m).
+    contact_give_m : float
+        What the contact under way can give (m), as given when it began.
     loading : bool
-        Whether the contact under way is still being loaded (the estimate may still change).
+        Whether the contact under way is still being loaded (its estimate may still change).
     """
 
-    def __init__(self, min_travel_m: float = defaults.STIFFNESS_MIN_TRAVEL_M) -> None:
+    def __init__(self, min_travel_m: float = defaults.STIFFNESS_MIN_TRAVEL_M,
+                 min_rise_pa: float = defaults.STIFFNESS_MIN_RISE_PA) -> None:
         self.min_travel_m = float(min_travel_m)
+        self.min_rise_pa = float(min_rise_pa)
         self.stiffness_pa_per_m = math.nan
+        self.onset_pa = 0.0
+        self.give_m = math.inf
         self.indentation_m = 0.0
+        self.contact_give_m = math.inf
         self.loading = False
         self.contacts = 0
+        self._kept = (math.nan, 0.0, math.inf)  # stiffness, onset, give of the last loaded contact
         self._in_contact = False
         self._position: np.ndarray | None = None
-        self.onset_pa = 0.0
 
-    def update(self, in_contact: bool, pressure_pa: float, pose: np.ndarray, loaded_pa: float) -> bool:
-        """One cycle: raw contact flag and pressure (Pa), the pad's pose ``T_gs`` (m) and the
-        pressure (Pa) at which loading ends. Returns whether the contact began this cycle."""
+    def update(self, in_contact: bool, pressure_pa: float, pose: np.ndarray, loaded_pa: float,
+               give: Callable[[], float] = lambda: math.inf) -> bool:
+        """One cycle: raw contact flag and pressure (Pa), the pad's pose ``T_gs`` (m), the
+        pressure (Pa) at which loading ends and, called when a contact begins, what it can give
+        (m). Returns whether a contact began this cycle."""
         began = in_contact and not self._in_contact
         self._in_contact = in_contact
-        position = pose[:3, 3]
         if not in_contact:
-            self.loading = False
+            if self.loading:  # lost before it was loaded: back to the last loaded contact
+                self.stiffness_pa_per_m, self.onset_pa, self.give_m = self._kept
+                self.loading = False
             self._position = None
             return False
+        position = pose[:3, 3]
         if began or self._position is None:
             self.indentation_m = 0.0
-            self.onset_pa = float(pressure_pa)
+            self._onset = float(pressure_pa)
+            self.contact_give_m = float(give())
             self.loading = True
             self.contacts += 1
         else:
@@ -106,11 +131,13 @@ class ContactStiffness:
         self._position = position.copy()
         if self.loading:
             d = self.indentation_m
-            rise = pressure_pa - self.onset_pa
-            if d >= self.min_travel_m and rise > 0.0:
-                self.stiffness_pa_per_m = rise / d
+            rise = pressure_pa - self._onset
+            if rise >= self.min_rise_pa and (d >= self.min_travel_m or pressure_pa >= loaded_pa):
+                self.stiffness_pa_per_m = rise / max(d, self.min_travel_m)
+                self.onset_pa, self.give_m = self._onset, self.contact_give_m
             if pressure_pa >= loaded_pa:
                 self.loading = False
+                self._kept = (self.stiffness_pa_per_m, self.onset_pa, self.give_m)
         return began
 
 
@@ -146,10 +173,12 @@ class AdaptForceTarget(TactileBehaviour):
                                       "the table below is farther (m).")
     min_travel_m = Parameter(defaults.STIFFNESS_MIN_TRAVEL_M, bound=POSITIVE,
                              doc="Indentation of a contact before its stiffness counts (m).")
+    min_rise_pa = Parameter(defaults.STIFFNESS_MIN_RISE_PA, bound=POSITIVE,
+                            doc="Rise of the pressure of a contact before its stiffness counts (Pa).")
     rise_pa_per_s = Parameter(defaults.FORCE_TARGET_RISE_PA_PER_S, bound=POSITIVE, unit="Pa/s",
                               doc="Fastest rise of the adapted target (Pa/s); it falls at once.")
-    fail_below_floor = Parameter(True, doc="Fail when the object does not carry ``floor_pa`` within ``give_share`` of "
-                                           "what it gives, once the pad has pressed that far.")
+    fail_below_floor = Parameter(True, doc="Fail when the pressure is still below ``floor_pa`` once the pad has pressed "
+                                           "``give_share`` of what the object gives into it.")
     key = Parameter(FORCE_TARGET_KEY, fixed=True, doc="Blackboard key of the adapted target (Pa).")
     estimate_key = Parameter(STIFFNESS_KEY, fixed=True, doc="Blackboard key of the estimated stiffness (Pa/m).")
     table_key = Parameter(TABLE_Z_KEY, fixed=True,
@@ -163,9 +192,8 @@ class AdaptForceTarget(TactileBehaviour):
         for k in (self.key, self.estimate_key):
             self._writer.register_key(key=k, access=Access.WRITE)
         self._writer.register_key(key=self.table_key, access=Access.READ)
-        self.estimator = ContactStiffness(self.min_travel_m)
+        self.estimator = ContactStiffness(self.min_travel_m, self.min_rise_pa)
         self.target = self.lowest_target_pa = self.target_pa
-        self.give_m = self.max_indentation_m
         self.table_z_m = math.nan
         write(self.key, self.target)
         write(self.estimate_key, math.nan)
@@ -181,7 +209,7 @@ class AdaptForceTarget(TactileBehaviour):
 
     def initialise(self) -> None:
         self.table_z_m = table_height(self._writer, self.table_key)
-        self.estimator = ContactStiffness(self.min_travel_m)
+        self.estimator = ContactStiffness(self.min_travel_m, self.min_rise_pa)
         self.target = self.lowest_target_pa = self.target_pa
         write(self.key, self.target)
         write(self.estimate_key, math.nan)
@@ -201,18 +229,19 @@ class AdaptForceTarget(TactileBehaviour):
         f = read(FEATURES_RAW)
         T = read(POSE)
         estimator = self.estimator
-        if estimator.update(bool(f.in_contact), float(f.pressure), T, 0.9 * self.target):
-            self.give_m = self._give(f, T)
-        k = estimator.stiffness_pa_per_m
-        wanted = carried_target(self.target_pa, self.floor_pa, k, estimator.onset_pa, self.give_m, self.give_share)
-        allowed = self.give_share * self.give_m
-        if self.fail_below_floor and f.in_contact and estimator.indentation_m >= allowed:
-            carried = estimator.onset_pa + k * allowed if k > 0.0 else math.nan
-            if carried < self.floor_pa:
-                self.feedback_message = (f"too soft to carry {self.floor_pa:.0f} Pa: {k:.3g} Pa/m carries "
-                                         f"{carried:.0f} Pa within {allowed * 1e3:.2f} mm, {self.give_share:.0%} of "
-                                         f"the {self.give_m * 1e3:.2f} mm it gives")
-                return Status.FAILURE
+        estimator.update(bool(f.in_contact), float(f.pressure), T, 0.9 * self.target, lambda: self._give(f, T))
+        k, give = estimator.stiffness_pa_per_m, estimator.give_m
+        wanted = carried_target(self.target_pa, self.floor_pa, k, estimator.onset_pa, give, self.give_share)
+        if estimator.loading:
+            allowed = self.give_share * estimator.contact_give_m
+            pressure = read(FEATURES).pressure
+            if estimator.indentation_m >= allowed and pressure < self.floor_pa:  # not even the floor
+                if self.fail_below_floor:
+                    self.feedback_message = (f"too soft to carry {self.floor_pa:.0f} Pa: {pressure:.0f} Pa after "
+                                             f"{estimator.indentation_m * 1e3:.2f} mm, {self.give_share:.0%} of the "
+                                             f"{estimator.contact_give_m * 1e3:.2f} mm it gives")
+                    return Status.FAILURE
+                wanted = self.floor_pa
         if wanted > self.target:
             wanted = min(wanted, self.target + self.rise_pa_per_s * self.dt)
         self.target = wanted
@@ -231,10 +260,10 @@ class AdaptForceTarget(TactileBehaviour):
 
     def summary(self) -> dict:
         """What report.json shows under ``force.stiffness``: the estimate (Pa/m, None while
-        unknown), the give of the last contact (m), the adapted target at the end and the lowest
+        unknown), what the contact it comes from could give (m; None while unknown), the adapted target at the end and the lowest
         one (Pa), and the contacts seen."""
-        k = self.estimator.stiffness_pa_per_m
+        k, give = self.estimator.stiffness_pa_per_m, self.estimator.give_m
         return {"node": self.name, "stiffness_pa_per_m": None if math.isnan(k) else float(k),
-                "give_m": float(self.give_m), "target_pa": float(self.target),
+                "give_m": float(give) if math.isfinite(give) else None, "target_pa": float(self.target),
                 "lowest_target_pa": float(self.lowest_target_pa), "tree_target_pa": self.target_pa,
                 "contacts": self.estimator.contacts}
