@@ -76,8 +76,6 @@ STIFFNESS_MIN_TRAVEL_M: float = 0.0002
 #: Rise of the pressure of a contact before its stiffness estimate counts (Pa): several times the
 #: noise of the unsmoothed pressure of a small contact.
 STIFFNESS_MIN_RISE_PA: float = 0.05 * TARGET_PRESSURE_PA
-#: Fastest rise of a lowered pressure target when a stiffer contact is found (Pa/s).
-FORCE_TARGET_RISE_PA_PER_S: float = 1000.0
 
 # --- Chatter of the servo leaves (tactile_bt.control.chatter.ChatterDamper) ---------------------
 #: A sign change of a servo output between two cycles counts as chatter when it jumps by at

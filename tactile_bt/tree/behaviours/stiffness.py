@@ -12,22 +12,23 @@ The estimate (:class:`ContactStiffness`) is a secant per contact: from the cycle
 begins, the indentation ``d`` is the pad's travel along its own normal (``+z`` of the sensor
 frame, towards the object; summed cycle by cycle, so the pad may turn) and the stiffness is
 ``k = (p - p0) / d`` (Pa/m), ``p`` the raw pressure and ``p0`` the pressure when the contact
-began, taken while the pad loads the contact (until the pressure first reaches 0.9 times the
-adapted target) once ``d`` exceeds ``min_travel_m``, then held until the next contact: the
-estimate of a stiff contact, whose target needs less than ``min_travel_m``, stays unknown. Sliding and
-rolling afterwards move the pad along its normal for reasons other than indentation, so they
-do not change the estimate.
+began. It counts once ``d`` exceeds ``min_travel_m`` and ``p`` has risen by ``min_rise_pa``,
+follows the contact while the pad loads it (until the pressure first reaches 0.9 times the
+adapted target) and is kept from then on; a contact lost before it was loaded (one fading at an
+edge of the object while the pad moves on) leaves the estimate of the last loaded contact.
+Sliding and rolling after the loading move the pad along its normal for reasons other than
+indentation, so they do not change the estimate. A contact loaded within ``min_travel_m`` is
+stiffer than its secant at ``min_travel_m``, which is kept.
 
 What the object can give before the pad reaches something hard is ``max_indentation_m``, or
 less when the set-up's table (``/setup/table_z_m``) lies closer below the contact along the pad
 normal, from where the contact began. The contact carries ``p0 + k · give_share · give`` within
 ``give_share`` of that; when this is less than ``target_pa`` it becomes the target, never
-below ``floor_pa``. A lowered target rises again (at most ``rise_pa_per_s``) when a later
-contact shows a stiffer object. An object whose smoothed pressure is still below ``floor_pa``
-when the pad has pressed that share of its give into it is too soft to servo on: with
-``fail_below_floor`` the leaf then fails and says so, which ends a task it runs beside with an
-honest ``failure`` rather than a servo on a contact too faint to follow; without, the target
-becomes ``floor_pa``.
+below ``floor_pa`` (a stiffer contact later raises it again). An object whose smoothed pressure
+is still below ``floor_pa`` when the pad has pressed ``give_share`` of its give into it is too
+soft to servo on: with ``fail_below_floor`` the leaf then fails and says so, which ends a task
+it runs beside with an honest ``failure`` rather than a servo on a contact too faint to follow;
+without, the target becomes ``floor_pa``.
 
 Layer: tree.
 """
@@ -175,8 +176,6 @@ class AdaptForceTarget(TactileBehaviour):
                              doc="Indentation of a contact before its stiffness counts (m).")
     min_rise_pa = Parameter(defaults.STIFFNESS_MIN_RISE_PA, bound=POSITIVE,
                             doc="Rise of the pressure of a contact before its stiffness counts (Pa).")
-    rise_pa_per_s = Parameter(defaults.FORCE_TARGET_RISE_PA_PER_S, bound=POSITIVE, unit="Pa/s",
-                              doc="Fastest rise of the adapted target (Pa/s); it falls at once.")
     fail_below_floor = Parameter(True, doc="Fail when the pressure is still below ``floor_pa`` once the pad has pressed "
                                            "``give_share`` of what the object gives into it.")
     key = Parameter(FORCE_TARGET_KEY, fixed=True, doc="Blackboard key of the adapted target (Pa).")
@@ -242,8 +241,6 @@ class AdaptForceTarget(TactileBehaviour):
                                              f"{estimator.contact_give_m * 1e3:.2f} mm it gives")
                     return Status.FAILURE
                 wanted = self.floor_pa
-        if wanted > self.target:
-            wanted = min(wanted, self.target + self.rise_pa_per_s * self.dt)
         self.target = wanted
         if wanted < self.lowest_target_pa:
             self.lowest_target_pa = wanted
