@@ -223,7 +223,7 @@ class OracleSensorModel:
 
 
 class PythonContact:
-    """A contact model the compliant arm sees as a plain callable (no ``arm_step``): every step
+    """A contact model the compliant arm sees as a plain callable (no ``contact_kernel``): every step
     of an arm with it goes through the Python solvers."""
 
     def __init__(self, fn) -> None:

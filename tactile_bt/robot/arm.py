@@ -41,12 +41,15 @@ described there.
 
 Compiled step
 -------------
-When the contact model offers ``arm_step`` (the simulated pad does, :class:`tactile_bt.sim.pad.PadContact`),
-:meth:`CompliantArm.move` and the quasi-static :meth:`CompliantArm.step` run in compiled
-kernels (:mod:`tactile_bt.robot.kernels`): resolved rates, then the equilibrium posture's motion
-and the contact equilibrium, which alternates with the contact model's own kernel.  The rare steps it hands back (a joint that saturates, a step that needs
-the bracketing line search) are finished by the Python solvers described here, from the same
-state.  Any other contact model (a Python callable) uses the Python solvers throughout.
+When the contact model offers a compiled kernel (:class:`~tactile_bt.robot.stepping.CompiledContact`;
+the simulated pad does, :class:`tactile_bt.sim.pad.PadContact`), :meth:`CompliantArm.move` and
+the quasi-static :meth:`CompliantArm.step` run in compiled kernels
+(:mod:`tactile_bt.robot.kernels`, driven by :class:`~tactile_bt.robot.stepping.ArmStepper`):
+resolved rates, then the equilibrium posture's motion and the contact equilibrium, which
+alternates with the contact model's own kernel.  The rare steps it hands back (a joint that
+saturates, a step that needs the bracketing line search) are finished by the Python solvers
+described here, from the same state.  Any other contact model (a Python callable) uses the
+Python solvers throughout.
 
 Redundancy
 ----------
@@ -75,6 +78,7 @@ from tactile_bt.robot.equilibrium import (
 )
 from tactile_bt.robot import kernels
 from tactile_bt.robot.kinematics import LWR4Kinematics, Q_READY, RateSolution
+from tactile_bt.robot.stepping import HOLD, JOINT_VELOCITIES, RATES, ArmStepper, CompiledContact
 from tactile_bt.robot.redundancy import LimitAvoidance
 from tactile_bt.sense.geometry import PadGeometry
 
@@ -173,12 +177,7 @@ class CompliantArm(EquilibriumSolverMixin):
         self._H: np.ndarray | None = None  # quasi-Newton matrix carried between solves
         self._H_Kd = np.zeros(7)
         self._kin_cache: tuple | None = None
-        # compiled step: packed stiffness, damping and null-space objective (for the objects
-        # they were made from), in/out state, output
-        self._arm_key: tuple = ()
-        self._arm_packed = np.zeros(kernels.ARM_SIZE)
-        self._io = np.zeros(kernels.IO_SIZE)
-        self._out = np.zeros(kernels.OUT_SIZE)
+        self._stepper = ArmStepper()  # the compiled step's packed arrays
         #: Default contact model of :meth:`step` and :meth:`move` (a :data:`WrenchFn`), e.g. set
         #: by the world to the pad-object contact; ``None``: no contact.
         self.contact: WrenchFn | None = None
@@ -358,68 +357,49 @@ class CompliantArm(EquilibriumSolverMixin):
         return res
 
     # ------------------------------------------------------------------ internals
-    def _compiled_contact(self, wrench_fn, wrench_g):
-        """The contact model whose ``arm_step`` takes the step, or None (Python solvers)."""
+    def _compiled_contact(self, wrench_fn, wrench_g) -> CompiledContact | None:
+        """The contact model whose kernel the compiled step alternates with, or None (Python solvers)."""
         if wrench_g is not None or self.mode != "quasi_static":
             return None
         contact = self.contact if wrench_fn is None else wrench_fn
-        return contact if hasattr(contact, "arm_step") else None
+        return contact if hasattr(contact, "contact_kernel") else None
 
-    def _compiled_step(self, contact, dt: float, twist=None, q_dot=None) -> bool:
-        """One quasi-static step in the compiled kernel (module docstring).
+    def _compiled_step(self, contact: CompiledContact, dt: float, twist=None, q_dot=None) -> bool:
+        """One quasi-static step in the compiled kernels (module docstring).
 
         With ``twist``: resolved rates too; False when they need the Python saturation loop
         (nothing was changed).  With ``q_dot`` (or neither: hold): always True.  A step whose
         equilibrium the kernel hands back is finished by the Python solver.
         """
-        key = (id(self.K), id(self.D), id(self.redundancy))
-        if key != self._arm_key:
-            self._arm_packed = kernels.pack_arm(self.K, self.D, self.redundancy)
-            self._arm_key = key
-        io, out, K = self._io, self._out, kernels
-        io[K.I_QEQ:K.I_QEQ + 7] = self.q_eq
-        io[K.I_Q:K.I_Q + 7] = self.q
-        mode = 0.0
-        if twist is not None:
-            io[K.I_TWIST:K.I_TWIST + 6] = twist
-            mode = 2.0
-        elif q_dot is not None:
-            io[K.I_QDCMD:K.I_QDCMD + 7] = q_dot
-            mode = 1.0
-        io[K.I_DT] = dt
-        io[K.I_MODE] = mode
-        io[K.I_DAMP] = self.ik_damping
-        io[K.I_EPS] = self.sigma_threshold
-        io[K.I_STEP] = self.max_step_m
-        io[K.I_TOL] = self.tol
-        io[K.I_ITER] = self.max_iter
-        io[K.I_RADIUS] = self.pad_radius
-        if mode == 2.0 and not K.rates_fast(io[K.I_QEQ:K.I_QEQ + 7], io[K.I_TWIST:K.I_TWIST + 6], self.kin.packed,
-                                            self._arm_packed, io[K.I_DT], io[K.I_DAMP], io[K.I_EPS], out):
+        stepper = self._stepper
+        stepper.set_arm(self.K, self.D, self.redundancy)
+        mode = RATES if twist is not None else JOINT_VELOCITIES if q_dot is not None else HOLD
+        stepper.load(self.q_eq, self.q, dt, mode, twist if twist is not None else q_dot,
+                     ik_damping=self.ik_damping, sigma_threshold=self.sigma_threshold, max_step=self.max_step_m,
+                     tol=self.tol, max_iter=self.max_iter, pad_radius=self.pad_radius)
+        kin = self.kin.packed
+        if mode == RATES and not stepper.rates(kin):
             return False  # (the Python solve's saturation loop)
-        status = contact.arm_step(self.kin.packed, self._arm_packed, io, out)
-        if mode == 2.0:
-            self.last_rate = RateSolution(out[K.O_QD:K.O_QD + 7].copy(), float(out[K.O_LAM]), float(out[K.O_SMIN]),
-                                          np.zeros(7, dtype=bool), float(out[K.O_SCALE]),
-                                          out[K.O_RRES:K.O_RRES + 6].copy())
+        status = stepper.run(contact, kin)
+        if mode == RATES:
+            self.last_rate = stepper.rate_solution()
         q_prev = self.q
-        self.q_eq = io[K.I_QEQ:K.I_QEQ + 7].copy()
-        if status == K.STATUS_NONFINITE:
+        self.q_eq = stepper.q_eq()
+        if status == kernels.STATUS_NONFINITE:
             raise FloatingPointError(f"the contact model returned a non-finite wrench near T_gs=\n{self._T}")
-        if status == K.STATUS_NEWTON:
+        if status == kernels.STATUS_NEWTON:
             res = self._solve(WrenchSource(contact, None), self.q_eq, q_prev, self.D / dt, q_prev, self.tol,
                               self.max_iter)
             self._accept(res)
             self.q_dot = (self.q - q_prev) / dt
             return True
-        state = io[K.I_Q:K.I_QDOT + 7].copy()  # q, then q_dot
-        q = state[:7]
-        T = out[K.O_T:K.O_T + 16].reshape(4, 4)
-        res = SettleResult(q, T.copy(), out[K.O_W:K.O_W + 6].copy(), float(out[K.O_RES]), int(out[K.O_IT]),
-                           int(out[K.O_EVAL]), bool(out[K.O_CONV]))
+        q, q_dot = stepper.state()
+        T, J = stepper.pose_jacobian()
+        wrench, residual, iterations, evaluations, converged = stepper.solve()
+        res = SettleResult(q, T, wrench, residual, iterations, evaluations, converged)
         self.q, self._T, self.wrench_g, self.last_solve = q, T.copy(), res.wrench_g, res
-        self._kin_cache = (q.copy(), self._T, out[K.O_J:K.O_J + 42].reshape(6, 7).copy())
-        self.q_dot = state[7:]
+        self._kin_cache = (q.copy(), self._T, J)
+        self.q_dot = q_dot
         return True
 
     def _accept(self, res: SettleResult) -> None:

@@ -1,8 +1,8 @@
 """Compiled kernels of the arm: kinematics, the resolved-rate step and the contact equilibrium.
 
 numba ``nopython`` versions of the arm's hot path, for a contact model that is compiled too
-(the simulated pad, :class:`tactile_bt.sim.pad.SensorModel`, alternates :func:`arm_step` with
-its own kernel).  They compute what :mod:`tactile_bt.robot.kinematics`,
+(the simulated pad, :class:`tactile_bt.sim.pad.PadContact`, whose kernel
+:class:`tactile_bt.robot.stepping.ArmStepper` alternates with :func:`arm_step`).  They compute what :mod:`tactile_bt.robot.kinematics`,
 :mod:`tactile_bt.robot.resolved_rate`, :mod:`tactile_bt.robot.redundancy` and
 :mod:`tactile_bt.robot.equilibrium` describe, with the same formulas, damping schedule and
 safeguards, written out for the 7-joint arm.  Those Python implementations stay: they serve any
@@ -29,11 +29,15 @@ The fast path and what it hands back
 Compilation
 -----------
 ``cache=True`` keeps the machine code on disk (numba's ``NUMBA_CACHE_DIR``), IEEE semantics (no
-``fastmath``) keep a seed's run the same every time.  Python calls :func:`arm_step` and the
-contact model's kernel in turn, so neither links the other's machine code: numba links and
+``fastmath``) keep a seed's run the same every time.  Python
+(:meth:`tactile_bt.robot.stepping.ArmStepper.run`) calls :func:`arm_step` and the contact
+model's kernel in turn, so neither links the other's machine code: numba links and
 optimises a function's whole call tree into it again, and one kernel calling both would pay the
 compile of both a second time, in series, on a cold cache (:mod:`tactile_bt.sim.warmup`).  The
-work arrays are views of one float64 array, so a call passes six arguments.  Small helpers with
+state is a few flat float64 arrays, so a call passes six arguments; each array's fields are
+declared once, as a :class:`~tactile_bt.robot.layout.Layout` (:data:`KIN`, :data:`ARM`,
+:data:`IO`, :data:`OUT`, :data:`WORK`, :data:`CONTACT`), whose offsets the kernels read as
+module constants (``W_TT``, ...), and the work array's fields are views of it.  Small helpers with
 one caller are inlined at numba's level (``inline="always"``: :func:`arm_begin`); larger ones are
 called (numba's inlining retypes the inlined code in every caller, which costs more than a
 call).  Loops run over sizes read from the arrays, and no helper takes a constant argument (each
@@ -49,7 +53,15 @@ import math
 import numpy as np
 from numba import njit
 
+from tactile_bt.robot.layout import Layout
+
 __all__ = [
+    "KIN",
+    "ARM",
+    "IO",
+    "OUT",
+    "WORK",
+    "CONTACT",
     "KIN_SIZE",
     "ARM_SIZE",
     "IO_SIZE",
@@ -81,28 +93,38 @@ OPTS = dict(cache=True, error_model="numpy", nogil=True)
 #: Options of a small helper with one caller: inlined at numba's level.
 INLINE = dict(OPTS, inline="always")
 
-# Packed kinematic model (pack_kinematics): DH d, a, cos(alpha), sin(alpha); base and mount
-# (row-major 4x4); q_min, q_max, qd_max.
-K_D, K_A, K_CA, K_SA, K_BASE, K_MOUNT, K_QMIN, K_QMAX, K_QDMAX = 0, 7, 14, 21, 28, 44, 60, 67, 74
+#: The packed kinematic model (:func:`pack_kinematics`): DH d, a, cos(alpha), sin(alpha); base
+#: and mount (4x4); joint limits and speed limits.
+KIN = Layout("kinematic model", ("d", 7), ("a", 7), ("cos_alpha", 7), ("sin_alpha", 7), ("base", (4, 4)),
+             ("mount", (4, 4)), ("q_min", 7), ("q_max", 7), ("qd_max", 7))
+K_D, K_A, K_CA, K_SA, K_BASE, K_MOUNT, K_QMIN, K_QMAX, K_QDMAX = map(KIN.offset, KIN.fields)
 #: Length of the packed kinematic model.
-KIN_SIZE = 81
-# Packed arm (pack_arm): joint stiffness, joint damping; limit avoidance: on/off, gain, wrist
-# band, wrist weight, speed cap, 7 weights.
-A_K, A_D, A_ON, A_GAIN, A_BAND, A_WRIST, A_SPEED, A_W = 0, 7, 14, 15, 16, 17, 18, 19
+KIN_SIZE = KIN.size
+#: The packed arm (:func:`pack_arm`): joint stiffness and damping; limit avoidance: on/off, gain,
+#: wrist band, wrist weight, speed cap, per-joint weights.
+ARM = Layout("arm", ("stiffness", 7), ("damping", 7), ("avoid_on", 1), ("gain", 1), ("wrist_band", 1),
+             ("wrist_weight", 1), ("speed_max", 1), ("weights", 7))
+A_K, A_D, A_ON, A_GAIN, A_BAND, A_WRIST, A_SPEED, A_W = map(ARM.offset, ARM.fields)
 #: Length of the packed arm.
-ARM_SIZE = 26
-# In/out state of arm_step: q_eq, q, q_dot; the twist; commanded joint velocities; the step
-# (dt, rate mode, ik damping, sigma threshold, max step, tol, max iterations, pad radius).
-I_QEQ, I_Q, I_QDOT, I_TWIST, I_QDCMD = 0, 7, 14, 21, 27
-I_DT, I_MODE, I_DAMP, I_EPS, I_STEP, I_TOL, I_ITER, I_RADIUS = 34, 35, 36, 37, 38, 39, 40, 41
+ARM_SIZE = ARM.size
+#: In/out state of :func:`arm_step`: q_eq, q, q_dot; the twist; commanded joint velocities; the
+#: step (dt, rate mode, ik damping, sigma threshold, max step, tol, max iterations, pad radius).
+IO = Layout("arm step state", ("q_eq", 7), ("q", 7), ("q_dot", 7), ("twist", 6), ("q_dot_cmd", 7), ("dt", 1),
+            ("mode", 1), ("ik_damping", 1), ("sigma_threshold", 1), ("max_step", 1), ("tol", 1),
+            ("max_iter", 1), ("pad_radius", 1))
+(I_QEQ, I_Q, I_QDOT, I_TWIST, I_QDCMD, I_DT, I_MODE, I_DAMP, I_EPS, I_STEP, I_TOL, I_ITER,
+ I_RADIUS) = map(IO.offset, IO.fields)
 #: Length of arm_step's in/out state.
-IO_SIZE = 42
-# Output of arm_step: pose (4x4), Jacobian (6x7), wrench, residual, iterations, contact
-# evaluations, converged; resolved rates: q_dot, damping, sigma_min, scale, saturated, residual.
-O_T, O_J, O_W, O_RES, O_IT, O_EVAL, O_CONV = 0, 16, 58, 64, 65, 66, 67
-O_QD, O_LAM, O_SMIN, O_SCALE, O_SAT, O_RRES = 68, 75, 76, 77, 78, 85
+IO_SIZE = IO.size
+#: Output of :func:`arm_step`: pose (4x4), Jacobian (6x7), wrench, residual, iterations, contact
+#: evaluations, converged; resolved rates: q_dot, damping, sigma_min, scale, saturated, residual.
+OUT = Layout("arm step output", ("T", (4, 4)), ("J", (6, 7)), ("wrench", 6), ("residual", 1), ("iterations", 1),
+             ("evaluations", 1), ("converged", 1), ("rate_q_dot", 7), ("rate_damping", 1),
+             ("rate_sigma_min", 1), ("rate_scale", 1), ("rate_saturated", 7), ("rate_residual", 6))
+(O_T, O_J, O_W, O_RES, O_IT, O_EVAL, O_CONV, O_QD, O_LAM, O_SMIN, O_SCALE, O_SAT,
+ O_RRES) = map(OUT.offset, OUT.fields)
 #: Length of arm_step's output.
-OUT_SIZE = 91
+OUT_SIZE = OUT.size
 
 #: The step is done.
 STATUS_OK = 0
@@ -119,32 +141,29 @@ MIN_GAP = 1e-3
 
 
 def pack_kinematics(d, a, alpha, base, mount, q_min, q_max, qd_max) -> np.ndarray:
-    """The kinematic model as the float64 array of :data:`KIN_SIZE` numbers the kernels read.
+    """The kinematic model as the float64 array of :data:`KIN_SIZE` numbers the kernels read
+    (:data:`KIN`).
 
     ``cos(alpha)`` below 1e-15 is set to exactly 0 (the +-90 degree twists), as the Python chain does.
     """
     alpha = np.asarray(alpha, float)
     ca, sa = np.cos(alpha), np.sin(alpha)
     ca[np.abs(ca) < 1e-15] = 0.0
-    out = np.concatenate((np.asarray(d, float), np.asarray(a, float), ca, sa,
-                          np.asarray(base, float).ravel(), np.asarray(mount, float).ravel(),
-                          np.asarray(q_min, float), np.asarray(q_max, float), np.asarray(qd_max, float)))
-    if out.shape != (KIN_SIZE,):
+    parts = dict(d=d, a=a, cos_alpha=ca, sin_alpha=sa, base=base, mount=mount, q_min=q_min, q_max=q_max,
+                 qd_max=qd_max)
+    if any(np.size(v) != KIN.length(k) for k, v in parts.items()):
         raise ValueError("a 7-joint model needs 7 DH rows, 4x4 base and mount, 7 limits each")
-    return out
+    return KIN.pack(**parts)
 
 
 def pack_arm(stiffness, damping, avoid) -> np.ndarray:
     """Joint stiffness and damping (7 each) and a
-    :class:`~tactile_bt.robot.redundancy.LimitAvoidance` (None: off) as the kernels read them."""
-    out = np.zeros(ARM_SIZE)
-    out[A_K:A_K + 7] = stiffness
-    out[A_D:A_D + 7] = damping
+    :class:`~tactile_bt.robot.redundancy.LimitAvoidance` (None: off) as the kernels read them
+    (:data:`ARM`)."""
+    out = ARM.pack(stiffness=stiffness, damping=damping)
     if avoid is not None:
-        out[A_ON] = 1.0
-        out[A_GAIN], out[A_BAND], out[A_WRIST], out[A_SPEED] = (
-            avoid.gain, avoid.wrist_band_rad, avoid.wrist_weight, avoid.speed_max)
-        out[A_W:A_W + 7] = np.asarray(avoid.weights, float)
+        ARM.pack(out, avoid_on=1.0, gain=avoid.gain, wrist_band=avoid.wrist_band_rad,
+                 wrist_weight=avoid.wrist_weight, speed_max=avoid.speed_max, weights=avoid.weights)
     return out
 
 
@@ -467,15 +486,22 @@ def lu_solve(H, b, x):
     return True
 
 
-# The work array of arm_step (WORK_SIZE numbers): the current iterate (q, T, J, w, K_x, r), the
-# trial point (q_t, T_t, J_t, w_t, K_xt, r_t), the Newton matrix, the step, c = D / dt, K + c, and
-# the scalars (iterations, evaluations, the initial slope, first, converged).  w_t is followed
-# by K_xt (row-major): the 42 numbers a contact model writes for the pose T_t.
-W_Q, W_T, W_J, W_W, W_KX, W_R = 0, 7, 23, 65, 71, 107
-W_QT, W_TT, W_JT, W_WT, W_KXT, W_RT = 114, 121, 137, 179, 185, 221
-W_H, W_DQ, W_C, W_KD, W_SC = 228, 277, 284, 291, 298
+#: The work array of :func:`arm_step`: the current iterate (q, T, J, w, K_x, r), the trial point
+#: (q_t, T_t, J_t, w_t, K_xt, r_t), the Newton matrix, the step, c = D / dt, K + c, and the
+#: scalars (iterations, evaluations, the initial slope, first, converged).  w_t is followed by
+#: K_xt: the 42 numbers a contact model writes for the pose T_t (:data:`CONTACT`).
+WORK = Layout("arm step work", ("q", 7), ("T", (4, 4)), ("J", (6, 7)), ("w", 6), ("Kx", (6, 6)), ("r", 7),
+              ("q_t", 7), ("T_t", (4, 4)), ("J_t", (6, 7)), ("w_t", 6), ("Kx_t", (6, 6)), ("r_t", 7),
+              ("H", (7, 7)), ("dq", 7), ("c", 7), ("Kd", 7), ("scalars", 5))
+(W_Q, W_T, W_J, W_W, W_KX, W_R, W_QT, W_TT, W_JT, W_WT, W_KXT, W_RT, W_H, W_DQ, W_C, W_KD,
+ W_SC) = map(WORK.offset, WORK.fields)
 #: Length of :func:`arm_step`'s work array.
-WORK_SIZE = 303
+WORK_SIZE = WORK.size
+#: What a contact model writes for a pose: the wrench ``[f; tau]`` and its stiffness ``K_x``
+#: (row-major), 42 numbers.
+CONTACT = Layout("contact", ("wrench", 6), ("stiffness", (6, 6)))
+if WORK.offset("Kx_t") != WORK.end("w_t") or WORK.end("Kx_t") - WORK.offset("w_t") != CONTACT.size:
+    raise AssertionError("the work array must hold w_t and K_xt as one contact record")
 #: ``contact_status`` of :func:`arm_step` that starts a step.
 BEGIN = -1
 

@@ -28,7 +28,6 @@ import numpy as np
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sense.calibration import TactelCalibration
-from tactile_bt.robot import kernels as arm_kernels
 from tactile_bt.sim import kernels
 
 __all__ = ["SensorParams", "SensorModel", "PadContact"]
@@ -133,12 +132,9 @@ class SensorModel:
             radius = max(1, int(np.ceil(2.5 * p.foam_spread)))
         self._spread_radius = radius
         # What the compiled kernels read (types fixed: float64 / int64 C arrays, writable).
-        self._padf = np.zeros(kernels.PAD_SIZE)
-        self._padf[kernels.PF_REACH] = pad.pitch * np.sqrt(0.5)  # no point of a tactel is farther from its centre
-        self._padf[kernels.PF_MARGIN] = self.BROAD_PHASE_MARGIN
-        self._padf[kernels.PF_NOISE] = p.noise_counts
-        self._padf[kernels.PF_NOISE_REL] = p.noise_relative
-        self._padf[kernels.PF_ADC] = defaults.ADC_MAX
+        self._padf = kernels.PAD.pack(reach=pad.pitch * np.sqrt(0.5),  # no point of a tactel is farther from its centre
+                                      margin=self.BROAD_PHASE_MARGIN, noise=p.noise_counts,
+                                      noise_relative=p.noise_relative, adc_max=defaults.ADC_MAX)
         eye = np.eye(1)
         self._Gr = eye if self._spread_rows is None else np.ascontiguousarray(self._spread_rows)
         self._Gc = eye if self._spread_cols is None else np.ascontiguousarray(self._spread_cols)
@@ -146,20 +142,19 @@ class SensorModel:
         self._force = np.zeros(n)
         self._z = np.zeros(n)
         self._raw = np.zeros(n, dtype=np.uint16)
-        self._wK = np.zeros(42)
+        self._wK = np.zeros(kernels.CONTACT.size)
         self._T = np.eye(4)
-        self._arm_work = np.zeros(arm_kernels.WORK_SIZE)  # the arm step's work array
         self._args = None
         self._cal_of = None
         self._cal = np.zeros((3, n))
         self._packed: tuple = ()
-        self._objf = np.zeros((1, kernels.OBJ_SIZE))
+        self._objf = np.zeros((1, kernels.OBJ.size))
         self._grids = np.zeros(1)
         self._near = np.zeros((1, n), dtype=np.int64)
         self._nnear = np.zeros(1, dtype=np.int64)
-        self._broad = np.zeros(kernels.BROAD_SIZE)
-        self._job = np.zeros(3)
-        self._last = np.zeros(kernels.LAST_SIZE)
+        self._broad = np.zeros(kernels.BROAD.size)
+        self._job = np.zeros(kernels.JOB.size)
+        self._last = np.zeros(kernels.LAST.size)
         self._last_force = np.zeros(n)
 
     # ------------------------------------------------------------------------------------
@@ -170,8 +165,18 @@ class SensorModel:
         """Forget the packed objects, the broad phase and the last pose's result (call when
         objects move)."""
         self._packed = ()
-        self._broad[0] = 0.0
-        self._last[0] = 0.0
+        self._forget()
+
+    def _ask(self, forces: bool) -> None:
+        """What :func:`~tactile_bt.sim.kernels.pad_contact` computes: the tactel forces, or the
+        contact wrench and stiffness."""
+        self._job[kernels.J_FORCES] = 1.0 if forces else 0.0
+        self._job[kernels.J_CONTACT] = 0.0 if forces else 1.0
+
+    def _forget(self) -> None:
+        """Mark the broad phase and the last pose's result as stale."""
+        self._broad[kernels.B_VALID] = 0.0
+        self._last[kernels.LAST_VALID] = 0.0
 
     def _prepare(self, T_gs, objects) -> None:
         """The pose and the objects as the kernel reads them (objects repacked when the list
@@ -180,12 +185,11 @@ class SensorModel:
         if objects != self._packed:  # objects compare by identity
             self._objf, self._grids = kernels.pack_objects(objects, self.params.foam_stiffness, self.tactel_area,
                                                            len(self._offsets))
-            if not objects:
-                self._objf[0, kernels.F_BLO:kernels.F_BHI + 3] = (np.inf,) * 3 + (-np.inf,) * 3
+            if not objects:  # a row no pad is near
+                kernels.OBJ.pack(self._objf[0], bounds_lo=np.inf, bounds_hi=-np.inf)
             self._near = np.zeros((max(len(objects), 1), self.pad.tactels), dtype=np.int64)
             self._nnear = np.zeros(max(len(objects), 1), dtype=np.int64)
-            self._broad[0] = 0.0
-            self._last[0] = 0.0
+            self._forget()
             self._packed = objects
             self._args = None
         if self.calibration is not self._cal_of:
@@ -209,9 +213,7 @@ class SensorModel:
         """The tactel forces at ``_T`` (spread by the foam) into ``_force``; returns the deepest
         penetration (m).  The kernels are always called with arguments of the same types (one
         compiled version each)."""
-        job = self._job
-        job[0] = 1.0
-        job[1] = 0.0
+        self._ask(forces=True)
         deepest = kernels.pad_contact(self._T, self._args, self._wK)
         if self._spread_rows is not None:
             kernels.foam_spread(self._force, self._Gr, self._Gc, self._spread_radius, *self.pad.shape)
@@ -273,27 +275,18 @@ class SensorModel:
             ``Σ k A a aᵀ`` with ``a = [n; p × n]`` over the penetrating samples.
         """
         self._prepare(T_gs, objects)
-        self._job[0] = 0.0
-        self._job[1] = 1.0
+        self._ask(forces=False)
         kernels.pad_contact(self._T, self._args, self._wK)
-        return self._wK[:6].copy(), self._wK[6:].reshape(6, 6).copy()
+        return kernels.CONTACT.view(self._wK, "wrench").copy(), kernels.CONTACT.view(self._wK, "stiffness").copy()
 
-    def arm_step(self, objects, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
-        """The compliant arm's step against the pad's contact with ``objects``, compiled:
-        :func:`tactile_bt.robot.kernels.arm_step` (the packed model, state and output arrays)
-        and the pad's contact at each of its trial poses, in turn.  Returns the step's status."""
+    def contact_kernel(self, objects) -> tuple:
+        """The compiled contact with ``objects`` for the compliant arm's step
+        (:class:`~tactile_bt.robot.stepping.CompiledContact`): ``(kernel, data)``, where
+        ``kernel(T, data, wK)`` writes the wrench and stiffness at the pad pose ``T`` into ``wK``
+        (:func:`tactile_bt.sim.kernels.pad_contact`, set to compute those and not the forces)."""
         self._prepare(None, objects)
-        step, work = arm_kernels.arm_step, self._arm_work
-        T = work[arm_kernels.W_TT:arm_kernels.W_TT + 16].reshape(4, 4)  # the trial pose, and the contact there
-        wK = work[arm_kernels.W_WT:arm_kernels.W_WT + 42]
-        contact, data, job = kernels.pad_contact, self._args, self._job
-        job[0] = 0.0
-        job[1] = 1.0
-        status = step(arm_kernels.BEGIN, kin, arm, io, out, work)
-        while status == arm_kernels.STATUS_EVALUATE:
-            contact(T, data, wK)
-            status = step(0, kin, arm, io, out, work)
-        return int(status)
+        self._ask(forces=False)
+        return kernels.pad_contact, self._args
 
     def spread(self, force: np.ndarray) -> np.ndarray:
         """Foam spread: a separable Gaussian of ``foam_spread`` tactels, truncated at 2.5 σ.
@@ -321,8 +314,9 @@ class PadContact:
     """The contact of a world's pad with its objects, for a compliant mount.
 
     Called with a pose it returns ``(wrench_g, K_x)`` (:meth:`SensorModel.contact`), like any
-    contact model of :mod:`tactile_bt.robot.equilibrium`; :meth:`arm_step` lets
-    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in compiled kernels.
+    contact model of :mod:`tactile_bt.robot.equilibrium`; :meth:`contact_kernel` lets
+    :class:`~tactile_bt.robot.arm.CompliantArm` take its whole step in compiled kernels
+    (:class:`~tactile_bt.robot.stepping.CompiledContact`).
 
     Parameters
     ----------
@@ -337,6 +331,6 @@ class PadContact:
     def __call__(self, T_gs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.sensor.contact(T_gs, self.world.objects)
 
-    def arm_step(self, kin: np.ndarray, arm: np.ndarray, io: np.ndarray, out: np.ndarray) -> int:
-        """See :meth:`SensorModel.arm_step`."""
-        return self.sensor.arm_step(self.world.objects, kin, arm, io, out)
+    def contact_kernel(self) -> tuple:
+        """See :meth:`SensorModel.contact_kernel`."""
+        return self.sensor.contact_kernel(self.world.objects)

@@ -5,8 +5,9 @@ cache (``cache=True``); every later run loads it.  On an empty cache that compil
 first run's wall time.  The kernels form three groups that do not call one another: the arm's
 (:mod:`tactile_bt.robot.kernels`: resolved rates, the contact equilibrium's step), the pad's
 (:mod:`tactile_bt.sim.kernels`) and perception's (:mod:`tactile_bt.perception.kernels`); the
-simulator calls the arm's step and the pad's contact in turn from Python, so no kernel links the
-arm's and the pad's machine code together (numba would compile that call tree again, in series).
+arm's step and the pad's contact are called in turn from Python
+(:class:`tactile_bt.robot.stepping.ArmStepper`), so no kernel links the arm's and the pad's
+machine code together (numba would compile that call tree again, in series).
 
 :func:`start` starts a second process; :func:`finish` then compiles groups in this process
 while the second one compiles others, both taking the next group from one queue (largest

@@ -25,6 +25,7 @@ from tactile_bt.control.spatial import body_to_spatial, make_pose
 from tactile_bt.robot import kernels as rk
 from tactile_bt.robot.kinematics import Q_MAX, Q_MIN, Q_READY, LWR4Kinematics
 from tactile_bt.robot.redundancy import LimitAvoidance
+from tactile_bt.robot.stepping import CompiledContact
 from tactile_bt.robot.resolved_rate import damped_least_squares
 from tactile_bt.sim import kernels as sk
 from tactile_bt.sim.objects import Cable, Table, object_pose, polyline_from_segments
@@ -144,6 +145,8 @@ def _worlds(scene_file: str, seed: int = 0):
     compiled = scene.build_world(np.random.default_rng(seed))
     oracle = scene.build_world(np.random.default_rng(seed))
     oracle.mount.arm.contact = python_contact(oracle)
+    assert isinstance(compiled.mount.arm.contact, CompiledContact)  # the arm steps in the kernels
+    assert not isinstance(oracle.mount.arm.contact, CompiledContact)
     return compiled, oracle
 
 
