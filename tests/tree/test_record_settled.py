@@ -70,17 +70,3 @@ def test_a_pad_still_moving_into_the_object_records_nothing():
     assert pressing < 10  # 30 mm/s into the object: nothing once the averaged speed passes 10 mm/s
     assert "pressing in at" in h.behaviour.feedback_message
     assert run(-0.03, 50) > 40  # backing off records again
-
-
-def test_an_imprint_keeps_only_the_points_pressed_within_the_limit():
-    image = np.zeros((16, 16))
-    image[4:12, 4:12] = 0.05  # 2 kPa on 64 tactels
-    image[7:9, 7:9] = 0.25  # a hard spot of 10 kPa in the middle
-    h = LeafHarness(RecordContacts(point="region", region_level=0.1, max_pressure_ratio=np.inf), dt=DT)
-    h.tick(frame=image)
-    everything = len(h.contacts)
-    limited = LeafHarness(RecordContacts(point="region", region_level=0.1), dt=DT)
-    limited.tick(frame=image)
-    pressures = limited.contacts.data[:, 6]
-    assert 0 < len(limited.contacts) < everything
-    assert pressures.max() <= 2 * defaults.TARGET_PRESSURE_PA

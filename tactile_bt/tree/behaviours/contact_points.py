@@ -12,10 +12,11 @@ adapted one of ``target_key`` when written, :mod:`tactile_bt.tree.behaviours.sti
 pad moves into the object at most at ``max_approach_mps``. A contact point (``cop``, ``local``)
 is recorded only while the contact is one region (any other region carries at most
 ``other_region_share`` of its force): the centre of pressure of a pad bridging a hollow lies
-between its two contacts. Of an imprint (``point: region``) only the points whose local
-pressure stays within ``max_pressure_ratio`` times the target are recorded; it is the largest
-region's alone, so a second region does not stop it (a flat pad bridging a hollow touches at
-its borders only, and would otherwise record nothing there).
+between its two contacts. An imprint (``point: region``) is the largest region's alone, so a
+second region does not stop it (a flat pad bridging a hollow touches at its borders only, and
+would otherwise record nothing there). Within a settled contact every point lies inside the
+object by what its own pressure compresses the foam and the object: the centre of a curved
+contact is pressed more than the region's mean, and is recorded all the same.
 
 Layer: tree.
 """
@@ -191,8 +192,7 @@ class RecordContacts(TactileBehaviour):
                               "the leaf starts (:mod:`tactile_bt.tree.behaviours.table`).")
     max_pressure_ratio = Parameter(defaults.RECORD_MAX_PRESSURE_RATIO, bound=POSITIVE_OR_INF, unit=None,
                                    doc="Record only while the smoothed pressure is at most this many times the "
-                                       "target, and of an imprint only the points whose local pressure is (inf: no "
-                                       "limit).")
+                                       "target (inf: no limit).")
     min_pressure_ratio = Parameter(defaults.RECORD_MIN_PRESSURE_RATIO, bound=NON_NEGATIVE, unit=None,
                                    doc="Record only while the smoothed pressure is at least this many times the "
                                        "target (0: from the first touch).")
@@ -291,7 +291,7 @@ class RecordContacts(TactileBehaviour):
                     moved += f.pad.half_width_m * math.sqrt(turn.dot(turn)) / _SQRT2
                     if moved < self.min_spacing_m:
                         return Status.RUNNING
-            self._record_region(f, T, target)
+            self._record_region(f, T)
             self._last, self._last_rotation = p, R.copy()
             return Status.RUNNING
         if p[2] <= self._floor:  # a contact with the table, not the object
@@ -346,13 +346,9 @@ class RecordContacts(TactileBehaviour):
                 return f"a second region carrying {others / f.force:.0%} of the first's force"
         return ""
 
-    def _record_region(self, f, T: np.ndarray, target: float) -> None:
-        """Add the imprint of ``f`` with the pad at ``T`` to the cloud, leaving out the points
-        pressed above ``max_pressure_ratio`` times ``target`` (Pa)."""
+    def _record_region(self, f, T: np.ndarray) -> None:
+        """Add the imprint of ``f`` with the pad at ``T`` to the cloud."""
         local, pressure = imprint_points(f, self.region_level, self.region_step_m)
-        if len(pressure) and self.max_pressure_ratio < math.inf:
-            kept = pressure <= self.max_pressure_ratio * target
-            local, pressure = local[kept], pressure[kept]
         world = local @ T[:3, :3].T + T[:3, 3]
         if self._floor > -math.inf and len(world):  # never the table's contacts
             above = world[:, 2] > self._floor
