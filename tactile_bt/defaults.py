@@ -152,8 +152,10 @@ SUPERVISOR_GRACE_S: float = 0.5
 SUPERVISOR_CLEAR_S: float = 0.2
 #: Longest grace and clear time a scene or run may declare (s).
 SUPERVISOR_MAX_WAIT_S: float = 2.0
-#: Speed of the retreat along the pad normal, away from the object (m/s).
-SUPERVISOR_RETREAT_SPEED_MPS: float = 0.02
+#: Speed of the retreat along the pad normal, away from the object (m/s): as fast as the force
+#: hold backs off. On the compliant arm the pad gives back only as its joints unwind, so a
+#: slower retreat leaves a small contact (a corner) above the limit for longer.
+SUPERVISOR_RETREAT_SPEED_MPS: float = FORCE_LIMIT_MPS
 #: Live missions: the longest gap between sensor frames (s; 10 frames at 250 Hz) ...
 SUPERVISOR_SENSOR_SILENCE_S: float = 0.04
 #: ... and the oldest robot pose (s) the supervisor accepts before it stops the mission.
