@@ -13,8 +13,8 @@ import numpy as np
 import py_trees
 
 from tactile_bt import run_mission
-from tactile_bt.tree.behaviours import (AdaptForceTarget, AlignEdge, Approach, CableEnd, Centre, ContactLost, ForceHold,
-                                       GuidedSlide, MissionTimeout, RecordContacts, TactileServo)
+from tactile_bt.tree.behaviours import (AdaptForceTarget, AlignEdge, Approach, Backtrack, CableEnd, Centre, ContactLost, ForceHold,
+                                       GuidedSlide, MissionTimeout, RecordContacts, Retry, TactileServo)
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -51,15 +51,25 @@ def build_tree() -> py_trees.trees.BehaviourTree:
             Centre(target_m=(0.0, 0.0), ki=0.0),  # P rows vx, vy
             level("level_along_cable"),
             AlignEdge(target_rad=np.pi / 2),  # P row wz: the cable along the sensor y axis
-            GuidedSlide(twist=(0.0, 0.02, 0.0, 0.0, 0.0, 0.0)),  # V_ext along y
-            CableEnd(),  # success at the end of the cable, by touch
+            # V_ext along y, slower where the line turns in the pad or its COP leaves the centre
+            GuidedSlide(twist=(0.0, 0.02, 0.0, 0.0, 0.0, 0.0), slow_turn_rad=np.deg2rad(5.0), slow_offset_m=0.002,
+                        min_scale=0.2),
+            CableEnd(),  # success at the end of the cable, failure when the line is lost
             RecordContacts(point="local", only_when="/cable/on_line"),
         ],
     )
-    task = py_trees.composites.Sequence("follow_cable", memory=True, children=[
-        approach,
+    # After a loss, back along the pad's recorded path (at once the first time), settle, follow.
+    back_up = py_trees.composites.Parallel("back_up", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                           children=[ForceHold(target_pa=2000.0, target_key="/force/target_pa"),
+                                                     Backtrack(distance_m=0.03)])
+    attempt = py_trees.composites.Sequence("attempt", memory=True, children=[
+        back_up,
         MissionTimeout(settle, name="settle_on_cable", duration_s=3.0, succeed=True),
         follow,
+    ])
+    task = py_trees.composites.Sequence("follow_cable", memory=True, children=[
+        approach,
+        Retry(attempt, name="follow_or_recover", num_failures=3),
     ])
     # Beside the whole task: the contact's stiffness, and the pressure target the cable carries.
     root = py_trees.composites.Parallel("cable_follow", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),

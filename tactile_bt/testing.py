@@ -179,11 +179,13 @@ class FramePerception:
         """Forget the moving average."""
         self.smoother.reset()
 
-    def __call__(self, force=None, raw=None) -> tuple[ContactFeatures, ContactFeatures]:
+    def __call__(self, force=None, raw=None, near_px=None, window_px=None) -> tuple[ContactFeatures, ContactFeatures]:
+        """``near_px``, ``window_px``: the region selection of a running leaf's ``region_hint``
+        (:func:`~tactile_bt.perception.features.extract`; None: the largest region)."""
         if (force is None) == (raw is None):
             raise ValueError("give either a force image (force=) or raw counts (raw=)")
         image = self.calibration.force_from_raw(raw) if raw is not None else np.asarray(force, dtype=float)
-        f_raw = extract(image, self.threshold, self.method, pad=self.pad)
+        f_raw = extract(image, self.threshold, self.method, pad=self.pad, near_px=near_px, window_px=window_px)
         return f_raw, self.smoother(f_raw)
 
 
@@ -250,8 +252,14 @@ class LeafHarness:
 
     def set_frame(self, frame=None, raw=None) -> None:
         """Features of a force image (``frame``, N per tactel) or of raw counts (``raw``),
-        through :attr:`perception`, seen from the next tick on."""
-        f_raw, f = self.perception(force=frame, raw=raw)
+        through :attr:`perception`, seen from the next tick on; with the region a running node's
+        ``region_hint`` asks for, as in a mission (:class:`~tactile_bt.mission.loop.ControlLoop`)."""
+        near = window = None
+        for node in self.behaviour.iterate():
+            if node.status == Status.RUNNING and callable(getattr(node, "region_hint", None)):
+                near, window = node.region_hint()
+                break
+        f_raw, f = self.perception(force=frame, raw=raw, near_px=near, window_px=window)
         self.set_features(f, raw=f_raw)
 
     def set_pose(self, pose: np.ndarray) -> None:

@@ -24,6 +24,9 @@ Rules
   it does not include the deflection of the compliant joints by the contact forces, which is
   the same with or without the limit.
 * At most :data:`MAX_RUNS_PER_JOINT` runs per joint are listed; one more line sums up the rest.
+* A mission that fails names in its reason the joints held on a limit during its last
+  :data:`HELD_AT_END_S` (:func:`held_at_end`): a saturated joint keeps the pad from going where
+  the tree sends it, which is what a follow then reports lost or stalled.
 
 Layer: mission.
 """
@@ -35,10 +38,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SaturationRun", "saturation_runs", "saturation_warnings", "MAX_RUNS_PER_JOINT"]
+__all__ = ["SaturationRun", "saturation_runs", "saturation_warnings", "held_at_end", "MAX_RUNS_PER_JOINT",
+           "HELD_AT_END_S"]
 
 #: Runs listed per joint before the rest is summed up in one line.
 MAX_RUNS_PER_JOINT = 5
+#: A run that lasted into this last stretch of a failed mission is named in its reason (s): about
+#: the time a follow takes to notice that the pad makes no headway.
+HELD_AT_END_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -156,3 +163,18 @@ def saturation_warnings(runs: list[SaturationRun], max_per_joint: int = MAX_RUNS
     for joint, (count, total) in sorted(rest.items()):
         out.append(f"joint {joint} at its limit {count} more times ({total:.2f} s in all)")
     return out
+
+
+def held_at_end(runs: list[SaturationRun], end_s: float, within_s: float = HELD_AT_END_S) -> str:
+    """The joints on a limit during the last ``within_s`` before ``end_s`` (s), worded for a
+    failed mission's reason ("joint 4 held at its upper limit (+120°) since 7.63 s"); "" when none."""
+    held = {}
+    for run in runs:
+        if run.end_s >= end_s - within_s:
+            held.setdefault(run.joint, run)
+    parts = []
+    for joint, run in sorted(held.items()):
+        where = {1: "upper ", -1: "lower ", 0: ""}[run.side]
+        value = "" if not math.isfinite(run.limit_rad) else f" ({math.degrees(run.limit_rad):+.0f}°)"
+        parts.append(f"joint {joint} held at its {where}limit{value} since {run.start_s:.2f} s")
+    return "; ".join(parts)

@@ -72,6 +72,9 @@ class ControlLoop:
         tree.setup()
         leaves = [b for b in tree.root.iterate() if isinstance(b, TactileBehaviour)]
         self._orientation_leaves = tuple(b for b in leaves if "orientation" in b.uses)
+        #: Leaves that choose the contact region extraction keeps (``region_hint``, e.g. the
+        #: followed line of ``cable_end``); without a running one, the largest region.
+        self._region_leaves = tuple(b for b in leaves if callable(getattr(b, "region_hint", None)))
         #: The last cycle's force image (N per tactel), raw and smoothed features, for watchers.
         self.image = None
         self.features_raw = None
@@ -94,7 +97,12 @@ class ControlLoop:
             if b.status == Status.RUNNING:
                 method = self.orientation_method
                 break
-        f_raw = extract(image, self.threshold, method, pad=self.pad)
+        near = window = None
+        for b in self._region_leaves:
+            if b.status == Status.RUNNING:
+                near, window = b.region_hint()
+                break
+        f_raw = extract(image, self.threshold, method, pad=self.pad, near_px=near, window_px=window)
         f = self.smoother(f_raw)
         if clock:
             t1 = clock()

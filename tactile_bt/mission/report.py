@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from tactile_bt.contacts.frontier_map import describe_left
 from tactile_bt.sim.region import describe_region
 
 __all__ = ["FeatureMetrics", "MissionReport", "OK_STATUSES"]
@@ -92,6 +93,10 @@ class MissionReport:
         The supervisor's limits, how often and how long it intervened, the peak pressure and
         force it saw and why it ended the mission, if it did
         (:meth:`tactile_bt.mission.supervisor.Supervisor.summary`).
+    frontier : dict, optional
+        The frontier a scan left, in m by reason: ``explained`` (the table, the tilt limit) and
+        ``unexplained`` (an edge, a stall, ..., "" for frontier never tried)
+        (:meth:`tactile_bt.tree.behaviours.frontier.FrontierGuidance.frontier_left`).
     force : dict, optional
         How hard the mission pressed after its approach
         (:func:`tactile_bt.mission.metrics.force_figures`) and, under ``stiffness``, the contact
@@ -122,12 +127,13 @@ class MissionReport:
     reconstruction: dict | None = None
     supervisor: dict | None = None
     realtime: dict | None = None
+    frontier: dict | None = None
     force: dict | None = None
 
     #: Key order of report.json.
     ORDER = ("tree", "recording", "scene", "seed", "status", "reason", "warnings", "rate_hz", "sim_time_s",
              "wall_time_s", "real_time_factor", "ticks", "metrics", "contacts", "path_error_m",
-             "path_error_cop_m", "reconstruction", "supervisor", "force", "realtime")
+             "path_error_cop_m", "reconstruction", "frontier", "supervisor", "force", "realtime")
 
     @property
     def ok(self) -> bool:
@@ -140,7 +146,7 @@ class MissionReport:
         for name in self.ORDER:
             value = getattr(self, name)
             if value is None and name in ("rate_hz", "recording", "path_error_m", "path_error_cop_m",
-                                          "reconstruction", "supervisor", "force", "realtime"):
+                                          "reconstruction", "frontier", "supervisor", "force", "realtime"):
                 continue
             if name == "metrics":
                 value = {k: m.to_dict() for k, m in value.items()}
@@ -193,6 +199,8 @@ class MissionReport:
             lines.append(f"  reconstruction   {rec['method']}, {rec['points']} contacts: chamfer "
                          f"{rec['chamfer_m'] * 1e3:.2f} mm, Hausdorff {rec['hausdorff_m'] * 1e3:.2f} mm, "
                          f"coverage {rec['coverage']:.3f} of {describe_region(rec.get('region'))}")
+        if self.frontier:
+            lines.append(f"  frontier left    {describe_left(self.frontier)}")
         sup = self.supervisor
         if sup and sup.get("interventions"):
             n = sup["interventions"]

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bt.mission.joints import saturation_runs, saturation_warnings
+from tactile_bt.mission.joints import held_at_end, saturation_runs, saturation_warnings
 from tactile_bt.mission.metrics import controlled_feature_metrics, force_figures, path_error
 from tactile_bt.mission.report import FeatureMetrics, MissionReport
 
@@ -73,6 +73,16 @@ class MissionResult:
         write_outputs(self, Path(out))
 
 
+def _frontier_left(tree) -> dict | None:
+    """The frontier left by the tree's frontier planner (a leaf with ``frontier_left``), if it
+    has planned at all."""
+    for node in tree.root.iterate():
+        left = getattr(node, "frontier_left", None)
+        if callable(left) and getattr(node, "left", None):
+            return left()
+    return None
+
+
 def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: float, sim_time_s: float, *,
                    scene=None, seed: int | None = None, recording: str | None = None,
                    warnings: list[str] | tuple = (), scan: dict | None = None, pad=None,
@@ -111,7 +121,10 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     """
     wall = time.perf_counter() - wall_start
     arrays = log.arrays()
-    warnings = [*warnings, *_joint_limit_warnings(arrays, log, scene)]
+    runs = _joint_limit_runs(arrays, log, scene)
+    warnings = [*warnings, *saturation_warnings(runs)]
+    if status == "failure" and runs and (held := held_at_end(runs, float(sim_time_s))):
+        reason = f"{reason}; {held}"
     if status == "completed" and not np.any(arrays["in_contact"] == 1):
         status, reason = "failure", "no contact was made"
     scene_file = getattr(scene, "file", scene) or ""
@@ -132,6 +145,7 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         rate_hz=getattr(scene, "rate_hz", None),
         recording=None if recording is None else str(recording),
         supervisor=supervision,
+        frontier=_frontier_left(tree),
         force=_force_report(tree, arrays),
     )
     cable = getattr(scene, "cable", None)
@@ -159,21 +173,8 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     return MissionResult(summary=summary, log=arrays, contact_data=contacts.data.copy(), surface=surface)
 
 
-def _force_report(tree, arrays: dict) -> dict:
-    """The report's ``force``: the force figures of the log, and the estimate and target of the
-    tree's ``adapt_force_target`` leaves (one: a dict; several: a list)."""
-    from tactile_bt.tree.behaviours.stiffness import AdaptForceTarget
-
-    force = force_figures(arrays)
-    root = getattr(tree, "root", tree)
-    adapters = [node.summary() for node in root.iterate() if isinstance(node, AdaptForceTarget)]
-    if adapters:
-        force["stiffness"] = adapters[0] if len(adapters) == 1 else adapters
-    return force
-
-
-def _joint_limit_warnings(arrays: dict, log, scene) -> list[str]:
-    """The report lines of the runs in which the arm held a joint on its limit (none without an arm)."""
+def _joint_limit_runs(arrays: dict, log, scene) -> list:
+    """The runs in which the arm held a joint on its limit (none without an arm)."""
     saturated = arrays.get("joint_saturated")
     t = arrays["t"]
     if saturated is None or not saturated.any():
@@ -181,6 +182,5 @@ def _joint_limit_warnings(arrays: dict, log, scene) -> list[str]:
     rate = getattr(scene, "rate_hz", None)
     dt = 1.0 / rate if rate else float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     limits = getattr(log, "joint_limits", None) or (None, None)
-    runs = saturation_runs(t, saturated, dt, residual=arrays.get("rate_residual"), joints=arrays.get("joints_rad"),
+    return saturation_runs(t, saturated, dt, residual=arrays.get("rate_residual"), joints=arrays.get("joints_rad"),
                            q_min=limits[0], q_max=limits[1])
-    return saturation_warnings(runs)

@@ -9,7 +9,13 @@ Pipeline of :func:`extract`:
 1. Tactels that are NaN, infinite or negative are replaced by 0 and counted.
 2. Binarise ``image > threshold`` (strictly greater) and label connected components with
    8-connectivity; keep the largest region ``R`` by tactel count (ties: larger force, then the
-   region whose first tactel comes first in row-major order).
+   region whose first tactel comes first in row-major order) — the paper's rule — or, with
+   ``near_px``, the region that comes nearest that point (the followed line where it was last
+   seen, so that another line beside it is not taken for it; ties: the larger region). With
+   ``near_px`` the pressure is the pad's load: the force of every region over their tactels
+   (what a force hold must bound when another strand carries part of it; the region's own with
+   one region), and with ``window_px`` the centre of pressure and orientation are those of the
+   region's part within a window along the line (a bend ahead leaves them alone).
 3. Force ``f = sum f_ij`` and the force-weighted centre of pressure over ``R`` (Eq. 1),
    pressure ``p = f / (|R| pitch^2)`` in Pa (Eq. 2), with the pitch of the pad
    (:class:`~tactile_bt.sense.geometry.PadGeometry`) the image comes from.
@@ -270,6 +276,8 @@ def extract(
     pad: PadGeometry | None = None,
     *,
     min_anisotropy: float = MIN_ANISOTROPY,
+    near_px: tuple[float, float] | None = None,
+    window_px: tuple[float, float, float] | None = None,
 ) -> ContactFeatures:
     """Extract contact force, pressure, centre of pressure and orientation from a force image.
 
@@ -288,6 +296,13 @@ def extract(
         (``PadGeometry()`` for a 16×16 image).
     min_anisotropy : float
         Minimum covariance anisotropy ``(l1 - l2) / (l1 + l2)`` for a defined orientation.
+    near_px : (float, float), optional
+        Region selection: None keeps the largest region; a point ``[column, row]`` (tactels)
+        keeps the region with the tactel nearest to it, and the pressure is the pad's load.
+    window_px : (float, float, float), optional
+        With ``near_px``: ``(ux, uy, half_length)``, a unit vector (sensor frame) and a length
+        (tactels): the COP and orientation count only the region's tactels within
+        ``half_length`` of ``near_px`` along ``(ux, uy)`` (the whole region when none is).
 
     Returns
     -------
@@ -323,28 +338,33 @@ def extract(
     clean = np.empty(shape)
     mask = np.empty(shape, dtype=bool)
     work = np.empty(3 * img.size + 1, dtype=np.int32)
-    n_bad, changed, area, f, mx, my, mxx, mxy, myy = largest_region(
-        img, float(threshold), _clip_limit(shape), clean, mask, work)
+    near_x, near_y = (math.nan, math.nan) if near_px is None else (float(near_px[0]), float(near_px[1]))
+    ux, uy, half = (0.0, 0.0, math.inf) if window_px is None or near_px is None else map(float, window_px)
+    n_bad, changed, area, f, fw, mx, my, mxx, mxy, myy, load, loaded = largest_region(
+        img, float(threshold), _clip_limit(shape), clean, mask, work, near_x, near_y, ux, uy, half)
+    if not (fw > 0.0) and area > 0 and half < math.inf:  # nothing of the region in the window
+        n_bad, changed, area, f, fw, mx, my, mxx, mxy, myy, load, loaded = largest_region(
+            img, float(threshold), _clip_limit(shape), clean, mask, work, near_x, near_y, ux, uy, math.inf)
     if changed:
         img = clean
     if not (area > 0 and f > 0.0 and math.isfinite(f)):
         return ContactFeatures.no_contact(shape, n_bad, method, pad)
     # a convex combination of tactel centres; clip the last-ulp rounding back onto the pad
-    cx = min(max(mx / f, 0.0), shape[1] - 1.0)
-    cy = min(max(my / f, 0.0), shape[0] - 1.0)
+    cx = min(max(mx / fw, 0.0), shape[1] - 1.0)
+    cy = min(max(my / fw, 0.0), shape[0] - 1.0)
     if method is None:
         angle = math.nan
     else:
-        mu20 = max(mxx / f - cx * cx, 0.0)
-        mu11 = mxy / f - cx * cy
-        mu02 = max(myy / f - cy * cy, 0.0)
+        mu20 = max(mxx / fw - cx * cx, 0.0)
+        mu11 = mxy / fw - cx * cy
+        mu02 = max(myy / fw - cy * cy, 0.0)
         angle = _moment_angle(mu20, mu11, mu02, min_anisotropy)
         if method == "hough" and angle == angle:
             angle = hough_orientation(img, mask)
     # in_contact, force, area, pressure, cop_px, orientation, method, mask, invalid_tactels, pad,
     # image: positional, a third cheaper than by keyword, once per cycle
-    return ContactFeatures(True, f, area, f / (area * pitch * pitch), np.array((cx, cy)), angle, method, mask, n_bad,
-                           pad, img)
+    pressure = f / (area * pitch * pitch) if near_px is None or loaded == area else load / (loaded * pitch * pitch)
+    return ContactFeatures(True, f, area, pressure, np.array((cx, cy)), angle, method, mask, n_bad, pad, img)
 
 
 def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:

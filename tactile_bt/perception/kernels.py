@@ -5,7 +5,8 @@ where numpy would spend most of its time in per-call overhead on 256 values:
 
 * :func:`largest_region` — sanitise the image, label the regions above the threshold with
   8-connectivity, pick the largest (ties: larger force, then the one met first in row-major
-  order, as ``scipy.ndimage.label`` numbers them) and sum its moments ``[1, x, y, x², xy, y²]``;
+  order, as ``scipy.ndimage.label`` numbers them), or the one that comes nearest a given point,
+  and sum its moments ``[1, x, y, x², xy, y²]``;
 * :func:`windowed_centroid` — the force-weighted centroid of a region under a triangular window
   along an axis (the local contact point of an elongated contact).
 
@@ -27,8 +28,9 @@ __all__ = ["largest_region", "windowed_centroid"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def largest_region(img, threshold, limit, clean, mask, work):
-    """Largest 8-connected region of ``img > threshold`` and its force moments.
+def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, along_x, along_y, half_length):
+    """Largest 8-connected region of ``img > threshold`` (or the one nearest a point) and its
+    force moments.
 
     Parameters
     ----------
@@ -45,13 +47,23 @@ def largest_region(img, threshold, limit, clean, mask, work):
         Output: the largest region (all False without one).
     work : int32[::1]
         Scratch space of ``3 rows cols + 1`` entries: labels, flood-fill stack, region sizes.
+    near_x, near_y : float
+        NaN: the largest region wins. Otherwise the point ``[column, row]`` (tactels) whose
+        nearest region wins: the region with the tactel closest to it (ties: the larger region,
+        then the one met first in row-major order).
+    along_x, along_y, half_length : float
+        The moments (not the mask, the area or ``m1``) count only the region's tactels within
+        ``half_length`` tactels of ``(near_x, near_y)`` along the unit vector ``(along_x,
+        along_y)`` (the part of a line around a point on it); ``inf``: the whole region.
 
     Returns
     -------
     tuple
-        ``(invalid, changed, area, m1, mx, my, mxx, mxy, myy)``: the number of NaN / infinite /
-        negative tactels, whether ``clean`` differs from ``img``, the region's tactel count and
-        its sums of ``f``, ``f x``, ``f y``, ``f x²``, ``f xy``, ``f y²`` (x = column, y = row).
+        ``(invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded)``: the number of
+        NaN / infinite / negative tactels, whether ``clean`` differs from ``img``, the region's
+        tactel count, its force, and its sums of ``f``, ``f x``, ``f y``, ``f x²``, ``f xy``,
+        ``f y²`` (x = column, y = row) within the window; the force and tactel count of every
+        region together (the pad's load).
     """
     rows, cols = img.shape
     n = rows * cols
@@ -76,6 +88,8 @@ def largest_region(img, threshold, limit, clean, mask, work):
     best = 0
     best_size = 0
     tie = False
+    nearest = near_x == near_x and near_y == near_y
+    best_d2 = np.inf
     for i0 in range(rows):
         for j0 in range(cols):
             p = i0 * cols + j0
@@ -86,12 +100,18 @@ def largest_region(img, threshold, limit, clean, mask, work):
             work[n] = p
             top = 1
             size = 0
+            d2 = np.inf
             while top > 0:
                 top -= 1
                 size += 1
                 q = work[n + top]
                 i = q // cols
                 j = q - i * cols
+                if nearest:
+                    dx = j - near_x
+                    dy = i - near_y
+                    if dx * dx + dy * dy < d2:
+                        d2 = dx * dx + dy * dy
                 for ni in range(max(i - 1, 0), min(i + 2, rows)):
                     for nj in range(max(j - 1, 0), min(j + 2, cols)):
                         r = ni * cols + nj
@@ -100,7 +120,10 @@ def largest_region(img, threshold, limit, clean, mask, work):
                             work[n + top] = r
                             top += 1
             work[2 * n + count] = size
-            if size > best_size:
+            if nearest:
+                if d2 < best_d2 or (d2 == best_d2 and size > best_size):
+                    best, best_size, best_d2 = count, size, d2
+            elif size > best_size:
                 best, best_size, tie = count, size, False
             elif size == best_size:
                 tie = True
@@ -118,23 +141,32 @@ def largest_region(img, threshold, limit, clean, mask, work):
                 if force > best_force:
                     best, best_force = k, force
     area = 0
-    m1 = mx = my = mxx = mxy = myy = 0.0
+    loaded = 0
+    load = m1 = mw = mx = my = mxx = mxy = myy = 0.0
+    windowed = half_length < np.inf
     for i in range(rows):
         y = float(i)
         for j in range(cols):
-            inside = best > 0 and work[i * cols + j] == best
+            label = work[i * cols + j]
+            inside = best > 0 and label == best
             mask[i, j] = inside
+            if label > 0:
+                loaded += 1
+                load += clean[i, j]
             if inside:
                 x = float(j)
                 v = clean[i, j]
                 area += 1
                 m1 += v
+                if windowed and abs((x - near_x) * along_x + (y - near_y) * along_y) > half_length:
+                    continue
+                mw += v
                 mx += v * x
                 my += v * y
                 mxx += v * (x * x)
                 mxy += v * (x * y)
                 myy += v * (y * y)
-    return invalid, changed, area, m1, mx, my, mxx, mxy, myy
+    return invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -2,7 +2,6 @@
 scan leaves (world-frame guidance, the end of a stripe, coverage that stops growing) and the
 accuracy metrics on hand-checkable cases."""
 
-import math
 
 import numpy as np
 import py_trees
@@ -13,7 +12,7 @@ from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from tactile_bt.contacts.cloud import ContactCloud
-from tactile_bt.tree.behaviours import CoverageStalled, RecordContacts, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours import CoverageStalled, RecordContacts, ScanDirection
 from tactile_bt.tree.behaviours.contact_points import imprint_points
 from tactile_bt.perception.features import extract
 from tactile_bt.sim.region import check_region
@@ -155,81 +154,6 @@ def test_scan_direction_projects_a_world_direction_into_the_sensor_frame():
     assert v_world[1] > 0 and abs(v_world @ tilted[:3, 2]) < 1e-15
     # along the pad normal: no tangential direction, no guidance
     assert_allclose(ScanDirection(direction=[0, 0, 1]).guidance(make_pose(DOWN, (0, 0, 0))), np.zeros(6))
-
-
-def test_stripe_end_on_a_stall():
-    h = LeafHarness(StripeEnd(window_s=0.5, min_travel_m=0.004), dt=DT, pose=make_pose(DOWN, (0, 0, 0)))
-    statuses = [h.tick(make_features()) for _ in range(int(0.5 / DT) + 1)]
-    assert statuses[:-1] == [Status.RUNNING] * int(0.5 / DT)  # not before the window is full
-    assert statuses[-1] == Status.SUCCESS
-    assert "stalled" in h.behaviour.feedback_message
-
-
-def test_stripe_end_keeps_running_while_the_contact_moves():
-    leaf = StripeEnd(window_s=0.5, min_travel_m=0.004, result="failure")
-    h = LeafHarness(leaf, dt=DT, pose=make_pose(DOWN, (0, 0, 0)))
-    for k in range(300):  # 20 mm/s for 1.2 s
-        h.set_pose(make_pose(DOWN, (0.02 * k * DT, 0, 0)))
-        assert h.tick(make_features()) == Status.RUNNING
-    assert leaf.travelled == pytest.approx(0.02 * 299 * DT)
-    # now it stops: FAILURE (as asked) once the last 0.5 s hold less than 4 mm, i.e. 0.3 s later
-    k, status = ticks_until_done(h, 200)
-    assert status == Status.FAILURE and k * DT == pytest.approx(0.3, abs=0.01)
-
-
-def test_stripe_end_on_tilt_but_not_for_a_stripe_that_starts_tilted_and_rolls_back():
-    def tilted(deg):
-        return make_pose(Rotation.from_euler("y", deg, degrees=True) * DOWN, (0, 0, 0))
-
-    h = LeafHarness(StripeEnd(window_s=0.0, max_tilt_rad=math.radians(60)), dt=DT, pose=tilted(0))
-    for deg in (0, 30, 59):
-        h.set_pose(tilted(deg))
-        assert h.tick(make_features()) == Status.RUNNING
-    h.set_pose(tilted(61))
-    assert h.tick(make_features()) == Status.SUCCESS
-    # starts at 65° (after the previous stripe), rolls back over the top and down the other side
-    py_trees.blackboard.Blackboard.clear()
-    h = LeafHarness(StripeEnd(window_s=0.0, max_tilt_rad=math.radians(60)), dt=DT, pose=tilted(65))
-    for deg in (65, 66, 40, 0, -30, -59):
-        h.set_pose(tilted(deg))
-        assert h.tick(make_features()) == Status.RUNNING
-    h.set_pose(tilted(-61))
-    assert h.tick(make_features()) == Status.SUCCESS
-
-
-def test_stripe_end_of_a_stripe_that_starts_tilted_and_stays_so_or_turns_over_an_edge():
-    def tilted(deg):
-        return make_pose(Rotation.from_euler("y", deg, degrees=True) * DOWN, (0, 0, 0))
-
-    # on a vertical face beyond the 60° limit, not coming back: ends after window_s
-    h = LeafHarness(StripeEnd(window_s=0.5, min_travel_m=0.0, max_tilt_rad=math.radians(60)), dt=DT, pose=tilted(85))
-    k, status = ticks_until_done(h, 500)
-    assert status == Status.SUCCESS and k == pytest.approx(0.5 / DT, abs=1)
-    assert "stayed beyond" in h.behaviour.feedback_message
-    # a step that rolls the pad over an edge: the normal turns 45° from where it started
-    py_trees.blackboard.Blackboard.clear()
-    h = LeafHarness(StripeEnd(window_s=0.0, max_turn_rad=math.radians(45), result="failure"), dt=DT, pose=tilted(70))
-    for deg in (70, 80, 100, 114):
-        h.set_pose(tilted(deg))
-        assert h.tick(make_features()) == Status.RUNNING
-    h.set_pose(tilted(116))
-    assert h.tick(make_features()) == Status.FAILURE
-    assert "turned 46°" in h.behaviour.feedback_message
-
-
-def test_stripe_end_when_the_contact_shrinks_or_jumps():
-    h = LeafHarness(StripeEnd(window_s=0.5, min_travel_m=0.0, min_area_ratio=0.5), dt=DT,
-                    pose=make_pose(DOWN, (0, 0, 0)))
-    for _ in range(10):
-        assert h.tick(make_features(area=200)) == Status.RUNNING
-    k, status = ticks_until_done(h, 100, area=90)  # below half of 200 for window_s / 5 = 0.1 s
-    assert status == Status.SUCCESS and k == pytest.approx(0.1 / DT, abs=1)
-    py_trees.blackboard.Blackboard.clear()
-    h = LeafHarness(StripeEnd(window_s=0.0, max_jump_m=0.01), dt=DT, pose=make_pose(DOWN, (0, 0, 0)))
-    assert h.tick(make_features(cop_px=(7.5, 7.5))) == Status.RUNNING
-    assert h.tick(make_features(cop_px=(8.5, 7.5))) == Status.RUNNING   # 5 mm
-    assert h.tick(make_features(cop_px=(14.5, 7.5))) == Status.SUCCESS  # 30 mm: another object
-    assert "jumped" in h.behaviour.feedback_message
 
 
 def test_coverage_stalled_when_the_cloud_stops_growing():

@@ -19,8 +19,7 @@ from tactile_bt.mission.loop import root_outcome, success_reason
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.testing import LeafHarness, contact_frame, make_features
 from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
-                                        RollTo, SquareToSlope, StripeEnd, TableClearance, TableOffset)
-from tactile_bt.tree.behaviours.frontier import FrontierMap
+                                        RollTo, SquareToSlope, TableClearance, TableOffset)
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.blackboard import POSE
 
@@ -287,42 +286,6 @@ def disc(radius: float, centre=(0.0, 0.0), z: float = 0.05, step: float = 0.001,
     return pts, np.tile(np.asarray(normal, float) / np.linalg.norm(normal), (len(pts), 1))
 
 
-def test_frontier_is_the_rim_of_the_touched_disc_with_outward_directions():
-    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.1)
-    m.add(*disc(0.02))
-    rows, cols, out = m.frontier()
-    xy = m.centre_of(rows, cols)
-    r = np.linalg.norm(xy, axis=1)
-    assert len(rows) > 40
-    assert np.all(np.abs(r - 0.02) < 0.004)
-    radial = xy / r[:, None]
-    assert np.all(np.sum(radial * out, axis=1) > 0.7)
-
-
-def test_thin_gaps_and_small_holes_are_not_frontier_but_a_wide_gap_is():
-    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
-    pts, normals = disc(0.03, step=0.0005)
-    for lo, hi in ((0.0, 0.002), (0.011, 0.0172)):  # a gap one cell wide, one three cells wide
-        keep = ~((pts[:, 0] >= lo) & (pts[:, 0] < hi))
-        pts, normals = pts[keep], normals[keep]
-    hole = (np.abs(pts[:, 0] + 0.010) < 0.0015) & (np.abs(pts[:, 1]) < 0.001)  # a small hole
-    m.add(pts[~hole], normals[~hole])
-    rows, cols, _ = m.frontier()
-    x = m.centre_of(rows, cols)[:, 0]
-    inner = np.linalg.norm(m.centre_of(rows, cols), axis=1) < 0.025
-    assert not np.any(inner & (np.abs(x - 0.001) < 0.002))     # the thin gap is covered
-    assert not np.any(inner & (np.abs(x + 0.010) < 0.003))     # the small hole too
-    assert np.any(inner & (x > 0.008) & (x < 0.02))            # the wide gap is open
-
-
-def test_blocking_covers_a_disc_and_the_neighbouring_directions_only():
-    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
-    m.block((0.01, 0.0), 0.005, (1.0, 0.0))
-    r, c = m.cell_of(np.array([[0.01, 0.0], [0.02, 0.0]])).T
-    assert m.blocked[r[0], c[0]].tolist() == [True, True, False, False, False, False, False, True]
-    assert not m.blocked[r[1], c[1]].any()
-
-
 # ----------------------------------------------------------------------------- the planner
 
 
@@ -503,45 +466,64 @@ def test_a_scan_that_ends_by_touch_reports_why():
     assert root_outcome(plain) == ("success", "")
 
 
-# ------------------------------------------------------------------------- the edge test
-
-
-def rolled(deg: float, axis_point, about="y") -> np.ndarray:
-    """The pad facing down, rolled ``deg`` about a world line through ``axis_point``."""
-    R = Rotation.from_euler(about, deg, degrees=True)
-    centre = R.apply(-np.asarray(axis_point)) + axis_point
-    return pose(R * DOWN, centre)
-
-
-def test_stripe_end_knows_rolling_over_an_edge_from_rolling_round_a_curve():
-    # over an edge: the pad turns about the edge line at x = 20 mm on its surface, the contact
-    # (the edge) stays put in the world
-    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
-    h = LeafHarness(leaf)
+def test_no_frontier_left_is_a_failure_while_edges_leave_it_unexplained():
+    # a flat touched disc whose rim every attempt ended at, at an edge: the surface beyond may go
+    # on, so the scan has no evidence that it is done
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0))
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause="edge")
+    leaf.target = None
     status = Status.RUNNING
-    for k in range(250):
-        deg = 20.0 * k / 250
-        h.set_pose(rolled(deg, (0.02, 0.0, 0.0)))
-        # the contact sits on the edge: at x = 20 mm on the pad
-        status = h.tick(make_features(cop_px=(11.5, 7.5)))
+    for _ in range(10):
+        status = h.tick(make_features())
         if status != Status.RUNNING:
             break
-    assert status == Status.SUCCESS and leaf.cause == "edge"
-    assert 10 <= deg < 12
-    # round a cylinder of radius 50 mm: the contact moves R·θ as the pad turns
-    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
-    h = LeafHarness(leaf)
-    for k in range(250):
-        theta = math.radians(30.0 * k / 250)
-        R = Rotation.from_euler("y", theta)
-        h.set_pose(pose(R * DOWN, (0.05 * math.sin(theta), 0.0, 0.05 * math.cos(theta))))
-        assert h.tick(make_features()) == Status.RUNNING
-    # rolling back from an edge onto the face (the tilt shrinks) is no end either
-    leaf = StripeEnd(window_s=1.0, min_travel_m=0.0, edge_turn_rad=math.radians(10), edge_radius_m=0.01)
-    h = LeafHarness(leaf)
-    for k in range(250):
-        h.set_pose(rolled(30.0 - 25.0 * k / 250, (0.02, 0.0, 0.0)))
-        assert h.tick(make_features(cop_px=(11.5, 7.5))) == Status.RUNNING
+    assert status == Status.FAILURE
+    assert "unexplained" in leaf.feedback_message and "edge" in leaf.feedback_message
+    left = leaf.frontier_left()
+    assert left["unexplained"]["edge"] > 2 * math.pi * 0.02 * 0.6 and not left["explained"]
+
+
+def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_applied():
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause="stall")
+    leaf.target = None
+    status = Status.RUNNING
+    for _ in range(10):
+        status = h.tick(make_features())
+        if status != Status.RUNNING:
+            break
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("re-approaching the frontier")
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    point, normal = job["probe"]
+    assert np.linalg.norm(point[:2]) > 0.03  # beyond the rim (20 mm)
+    # the re-approach found the table there: that part of the rim is explained
+    job["result"] = "table"
+    leaf.initialise()
+    for _ in range(10):
+        h.tick(make_features())
+    assert leaf.frontier_left()["explained"].get("table", 0.0) > 0.01
+    assert leaf.ends["re-approach: table"] == 1
+
+
+@pytest.mark.parametrize("unexplained, status", [({"edge": 0.05}, Status.FAILURE), ({}, Status.SUCCESS)])
+def test_a_stalled_coverage_with_unexplained_frontier_is_no_success(unexplained, status):
+    leaf = CoverageStalled(window_s=1.0, min_samples=10, frontier_key="/scan/frontier_left")
+    h = LeafHarness(leaf, pose=pose(DOWN, (0.0, 0.0, 0.05)))
+    h.contacts.extend(*disc(0.01), 2000.0, 0.0)  # and no more: the coverage stalls
+    h.set("/scan/frontier_left", {"explained": {"table": 0.2}, "unexplained": unexplained})
+    result = Status.RUNNING
+    for _ in range(400):
+        result = h.tick(make_features())
+        if result != Status.RUNNING:
+            break
+    assert result == status
+    assert leaf.feedback_message.startswith("coverage stalled")
+    assert ("50 mm unexplained (50 edge)" in leaf.feedback_message) == (status == Status.FAILURE)
+    assert "200 mm explained (200 table)" in leaf.feedback_message
 
 
 # ------------------------------------------------------------------------ the mission's set-up

@@ -133,6 +133,37 @@ def test_largest_region_wins_and_ties_go_to_the_larger_force():
     assert_allclose(f.cop_px, [11.0, 10.0])
 
 
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, (16, 16), elements=st.sampled_from([0.0, 0.0, 0.0, 0.0, 0.3, 1.0])),
+       st.floats(0.0, 15.0), st.floats(0.0, 15.0), st.floats(-math.pi, math.pi), st.floats(0.5, 20.0))
+def test_the_region_nearest_a_point_and_its_part_in_a_window(img, x, y, angle, half):
+    """``near_px``: the region with the tactel nearest the point (ties: the larger region, then
+    the first in row-major order); ``window_px``: COP of its tactels within the window along the
+    axis (all of them when none is), pressure of every region together."""
+    from scipy import ndimage
+
+    threshold = defaults.CONTACT_THRESHOLD_N
+    labels, n = ndimage.label(img > threshold, structure=np.ones((3, 3)))
+    ux, uy = math.cos(angle), math.sin(angle)
+    f = extract(img, near_px=(x, y), window_px=(ux, uy, half))
+    if n == 0:
+        assert not f.in_contact
+        return
+    rows, cols = np.indices(img.shape)
+    d2 = (cols - x) ** 2 + (rows - y) ** 2
+    best = min(range(1, n + 1), key=lambda k: (d2[labels == k].min(), -np.count_nonzero(labels == k), k))
+    region = labels == best
+    assert_array_equal(f.mask, region)
+    inside = region & (np.abs((cols - x) * ux + (rows - y) * uy) <= half)
+    if not inside.any():
+        inside = region
+    w = img * inside
+    assert_allclose(f.cop_px, [np.sum(w * cols) / w.sum(), np.sum(w * rows) / w.sum()], rtol=1e-9, atol=1e-9)
+    loaded = labels > 0
+    assert_allclose(f.pressure, img[loaded].sum() / (loaded.sum() * f.pad.pitch ** 2), rtol=1e-9)
+    assert_allclose(f.force, img[region].sum(), rtol=1e-12)
+
+
 def test_diagonal_neighbours_are_connected():
     img = np.zeros(PAD)
     img[[2, 3, 4, 5], [2, 3, 4, 5]] = 0.1

@@ -10,15 +10,19 @@ Layer: tree.
 
 from tactile_bt.tree.behaviours.base import ServoLeaf, TactileBehaviour, TactileDecorator
 from tactile_bt.tree.behaviours.cable import CableEnd
+from tactile_bt.tree.behaviours.cable_recovery import Backtrack
 from tactile_bt.tree.behaviours.decorators import Inverter, OneShot, Repeat, Retry
 from tactile_bt.tree.behaviours.guards import ContactLost, ForceLimit, MissionTimeout
 from tactile_bt.tree.behaviours.motion import Approach, GuidedSlide
 from tactile_bt.tree.parameters import bind_blackboard
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
-from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection, StripeEnd
+from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection
+from tactile_bt.tree.behaviours.surface_end import (ContactJumped, ContactShrank, ContactStalled, PadTurned,
+                                                    RollingOverEdge, TiltLimit, Travelled)
 from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
+from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 from tactile_bt.tree.behaviours.supervision import SupervisorRetreat
@@ -35,10 +39,18 @@ LEAVES = {
     "guided_slide": GuidedSlide,
     "record_contacts": RecordContacts,
     "scan_direction": ScanDirection,
-    "stripe_end": StripeEnd,
+    "tilt_limit": TiltLimit,
+    "pad_turned": PadTurned,
+    "contact_jumped": ContactJumped,
+    "rolling_over_edge": RollingOverEdge,
+    "contact_shrank": ContactShrank,
+    "travelled": Travelled,
+    "contact_stalled": ContactStalled,
     "coverage_stalled": CoverageStalled,
     "cable_end": CableEnd,
+    "backtrack": Backtrack,
     "frontier_guidance": FrontierGuidance,
+    "reapproach": Reapproach,
     "table_clearance": TableClearance,
     "table_offset": TableOffset,
     "centre_to": CentreTo,
@@ -73,10 +85,18 @@ __all__ = [
     "GuidedSlide",
     "RecordContacts",
     "ScanDirection",
-    "StripeEnd",
+    "TiltLimit",
+    "PadTurned",
+    "ContactJumped",
+    "RollingOverEdge",
+    "ContactShrank",
+    "Travelled",
+    "ContactStalled",
     "CoverageStalled",
     "CableEnd",
+    "Backtrack",
     "FrontierGuidance",
+    "Reapproach",
     "TableClearance",
     "TableOffset",
     "CentreTo",

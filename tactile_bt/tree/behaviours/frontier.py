@@ -1,8 +1,9 @@
 """Exploration by touch: choose where to slide next from what has been touched (frontiers).
 
-The ``frontier_guidance`` leaf keeps a coarse map of the touched surface: an occupancy grid in
-the table plane (world x, y; ``cell_m`` cells) filled from the mission's contact cloud
-(``/tactile/contacts``, read by duck typing: ``.points`` and ``.normals``). The *frontier* is the
+The ``frontier_guidance`` leaf keeps a coarse map of the touched surface
+(:class:`tactile_bt.contacts.frontier_map.FrontierMap`): an occupancy grid in the table plane
+(world x, y; ``cell_m`` cells) filled from the mission's contact cloud (``/tactile/contacts``,
+read by duck typing: ``.points`` and ``.normals``). The *frontier* is the
 set of touched cells next to untouched ones: an open boundary of the covered area. A frontier
 cell is *reachable* while the surface touched there is tilted less than the pad's tilt limit
 (minus a margin) and no attempt to cross it has failed. The leaf slides the pad towards the
@@ -10,18 +11,26 @@ nearest reachable frontier cell, writing the guidance twist to ``key`` every cyc
 direction projected onto the pad's tangent plane, sensor frame, as ``scan_direction``) for
 ``guided_slide: {twist_key: ...}``, while the servo leaves keep the pad on the surface.
 
-An attempt ends at the end of the surface, with the signs of ``stripe_end`` (the contact point
-stalls or jumps, the contact shrinks at an edge, the pad tilts past ``max_tilt_rad``) and one of
-the set-up: the pad's lowest corner coming within ``table_clearance_m`` of the table
+An attempt ends at the end of the surface: one of the condition leaves of
+:mod:`tactile_bt.tree.behaviours.surface_end` the tree runs beside the planner (with ``end_key``:
+the contact stalls or jumps, shrinks at an edge, the pad rolls over an edge or tilts past its
+limit) writes the end to ``end_key``, and the leaves start over with each attempt, whose number
+the planner writes to ``attempt_key``. The planner itself ends an attempt on a sign of the
+set-up: the pad's lowest corner coming within ``table_clearance_m`` of the table
 (``/setup/table_z_m``, see :mod:`tactile_bt.tree.behaviours.table`) while moving towards it. The
 frontier cells under the pad whose open side faces the way the pad was going are then *blocked*
 for that direction, and the next target is chosen away from it. A recovering ``table_clearance``
 guard's alarm (``alarm_key``: the pad's corner has come too close to the table after all) ends
 an attempt the same way, the frontier towards the corner blocked as the table's, and the pad
-backs off away from the corner. The leaf succeeds when no reachable frontier is left, and its
-message counts the ends by cause (the table, the tilt limit, an edge ...): what explains the
-frontier left open. It knows nothing of the object's size, pose or shape beyond what the pad
-has touched.
+backs off away from the corner.
+
+When no reachable frontier is left, the leaf sums the frontier left by reason
+(:meth:`FrontierGuidance.frontier_left`, also on ``/scan/frontier_left`` for the report and for
+``coverage_stalled``): the object's foot at the table and a surface steeper than the tilt limit
+explain it; an edge, a stall, a jump, a lost contact or a target not reached in time do not
+(the surface beyond may go on). It succeeds only when at most ``max_unexplained_m`` is left
+unexplained, and fails otherwise, its message naming what is left. It knows nothing of the
+object's size, pose or shape beyond what the pad has touched.
 
 Layer: tree.
 """
@@ -33,24 +42,22 @@ from collections import Counter
 
 import numpy as np
 from py_trees.common import Access, Status
-from scipy import ndimage
 
+from tactile_bt.contacts.frontier_map import FrontierMap, describe_left
+from tactile_bt.contacts.reapproach_plan import ReapproachPlan
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.behaviours.scan import StripeEnd, tangent_guidance
+from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, FrontierLeft
+from tactile_bt.tree.behaviours.scan import tangent_guidance
+from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
-__all__ = ["FrontierGuidance", "FrontierMap"]
+__all__ = ["FrontierGuidance", "FRONTIER_LEFT_KEY"]
 
-#: Parameters passed on to the end-of-surface test (a ``stripe_end``).
-_END_PARAMETERS = ("window_s", "min_travel_m", "min_area_ratio", "max_jump_m", "max_tilt_rad", "edge_turn_rad",
-                   "edge_radius_m")
 #: Ends of an attempt at an edge under the pad (its imprint reached the edge across its width).
 _EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
-#: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
-SMALL_HOLE_CELLS = 2
 #: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
 _LEVEL_MARGIN_COS = 0.02
 #: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
@@ -63,157 +70,9 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
-#: Number of direction sectors a cell is blocked in (45° each).
-SECTORS = 8
-#: 8-neighbour offsets (row = y, column = x) and their unit directions.
-_OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
-_OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
 
 
-def _sector(direction_xy: np.ndarray) -> np.ndarray:
-    """Sector index (0..SECTORS-1) of world xy directions ``(..., 2)``."""
-    angle = np.arctan2(direction_xy[..., 1], direction_xy[..., 0])
-    return np.round(angle / (2 * math.pi / SECTORS)).astype(int) % SECTORS
-
-
-class FrontierMap:
-    """Occupancy grid of the touched surface in the table plane.
-
-    ``cell_m`` cells over a square of half-size ``extent_m`` around ``centre`` (world x, y).
-    Each cell holds the number of contact samples in it, the sum of their outward normals and the
-    highest sample; ``blocked[row, col, sector]`` marks the directions in which an attempt to
-    cross the cell has failed.
-    """
-
-    def __init__(self, centre_xy, cell_m: float = 0.002, extent_m: float = 0.3) -> None:
-        self.cell_m = float(cell_m)
-        self.n = int(math.ceil(2 * extent_m / cell_m))
-        self.origin = np.asarray(centre_xy, dtype=float)[:2] - 0.5 * self.n * self.cell_m
-        self.count = np.zeros((self.n, self.n), dtype=np.int32)
-        self.normal_sum = np.zeros((self.n, self.n, 3))
-        self.z_max = np.full((self.n, self.n), -np.inf)
-        self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
-        self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
-        self._col_any = np.zeros(self.n, dtype=bool)
-
-    def cell_of(self, xy: np.ndarray) -> np.ndarray:
-        """(row, col) indices of world xy points ``(k, 2)``; may lie outside the grid."""
-        ij = np.floor((np.asarray(xy)[..., :2] - self.origin) / self.cell_m).astype(int)
-        return ij[..., ::-1]
-
-    def centre_of(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """World xy (m) of the centres of cells ``(rows, cols)``, ``(k, 2)``."""
-        return self.origin + (np.column_stack((cols, rows)) + 0.5) * self.cell_m
-
-    def add(self, points: np.ndarray, normals: np.ndarray) -> int:
-        """Add contact samples (world points and outward normals, ``(k, 3)``); returns how many
-        fell inside the grid."""
-        rc = self.cell_of(points)
-        inside = np.all((rc >= 0) & (rc < self.n), axis=1)
-        rows, cols = rc[inside, 0], rc[inside, 1]
-        np.add.at(self.count, (rows, cols), 1)
-        np.add.at(self.normal_sum, (rows, cols), normals[inside])
-        np.maximum.at(self.z_max, (rows, cols), points[inside, 2])
-        self._row_any[rows] = True
-        self._col_any[cols] = True
-        return int(inside.sum())
-
-    def _window(self) -> tuple[slice, slice]:
-        """The part of the grid around the touched cells (one cell of margin)."""
-        rows = np.flatnonzero(self._row_any)
-        cols = np.flatnonzero(self._col_any)
-        if not len(rows):
-            return slice(0, 0), slice(0, 0)
-        return (slice(max(rows[0] - 1, 0), min(rows[-1] + 2, self.n)),
-                slice(max(cols[0] - 1, 0), min(cols[-1] + 2, self.n)))
-
-    @staticmethod
-    def _touched(count: np.ndarray) -> np.ndarray:
-        t = count > 0
-        # gaps one cell wide between touched cells (either way, or diagonally)
-        p = np.pad(t, 1)
-        h, w = t.shape
-
-        def at(dy: int, dx: int) -> np.ndarray:
-            return p[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + w]
-
-        t = t | (at(0, -1) & at(0, 1)) | (at(-1, 0) & at(1, 0)) | (at(-1, -1) & at(1, 1)) | (at(-1, 1) & at(1, -1))
-        holes, n = ndimage.label(~t)
-        if n:
-            sizes = np.bincount(holes.ravel())
-            small = sizes <= SMALL_HOLE_CELLS
-            small[0] = False
-            t = t | small[holes]
-        return t
-
-    @property
-    def touched(self) -> np.ndarray:
-        """Cells holding a sample, the gaps one cell wide between them and the holes of at most
-        :data:`SMALL_HOLE_CELLS` cells among them: with the imprint sampled every 2.5 mm on the
-        pad, a line of 2 mm cells may stay empty between samples that cover it (within 2 mm)
-        from both sides."""
-        out = np.zeros((self.n, self.n), dtype=bool)
-        w = self._window()
-        out[w] = self._touched(self.count[w])
-        return out
-
-    def tilt(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """Tilt (rad) from the vertical of the mean outward normal in the cells ``(rows, cols)``
-        (NaN where untouched)."""
-        s = self.normal_sum[rows, cols]
-        norm = np.linalg.norm(s, axis=-1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.arccos(np.clip(s[..., 2] / norm, -1.0, 1.0))
-
-    def frontier(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows, columns and outward directions ``(k, 2)`` (world xy, unit) of the frontier
-        cells: touched cells with an untouched 8-neighbour; outward points to the untouched
-        ones."""
-        w = self._window()
-        t = self._touched(self.count[w])
-        h, wd = t.shape
-        padded = np.pad(~t, 1, constant_values=True)
-        out = np.zeros((h, wd, 2))
-        for (dy, dx), d in zip(_OFFSETS, _OFFSET_DIRS):
-            out[padded[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + wd]] += d
-        norm = np.linalg.norm(out, axis=2)
-        rows, cols = np.nonzero(t & (norm > 1e-9))
-        vec = out[rows, cols] / norm[rows, cols, None]
-        return rows + w[0].start, cols + w[1].start, vec
-
-    def block_cells(self, rows: np.ndarray, cols: np.ndarray, directions_xy: np.ndarray) -> None:
-        """Block the cells ``(rows, cols)`` each for crossings in its own direction (``(k, 2)``,
-        world xy) and the two neighbouring sectors."""
-        s = _sector(np.asarray(directions_xy, dtype=float))
-        for k in (-1, 0, 1):
-            self.blocked[rows, cols, (s + k) % SECTORS] = True
-
-    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None) -> int:
-        """Block the cells within ``radius_m`` of ``centre_xy`` (and the cells ``rows, cols``)
-        for crossings in ``direction_xy`` and its two neighbouring sectors; returns how many
-        cells were newly blocked in the direction's own sector."""
-        d = np.asarray(direction_xy, dtype=float)[:2]
-        s = int(_sector(d))
-        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
-        r = int(math.ceil(radius_m / self.cell_m))
-        lo = np.maximum(c - r, 0)
-        hi = np.minimum(c + r + 1, self.n)
-        if np.all(hi > lo):
-            rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
-            inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
-            rr, cc = rr[inside], cc[inside]
-        else:
-            rr = cc = np.zeros(0, dtype=int)
-        if rows is not None:
-            rr = np.concatenate((rr, np.asarray(rows, dtype=int)))
-            cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
-        before = int(self.blocked[rr, cc, s].sum())
-        for k in (s - 1, s, s + 1):
-            self.blocked[rr, cc, k % SECTORS] = True
-        return int(self.blocked[rr, cc, s].sum()) - before
-
-
-class FrontierGuidance(TactileBehaviour):
+class FrontierGuidance(FrontierLeft, TactileBehaviour):
     """Slide towards the nearest reachable frontier of the touched surface; SUCCESS when none is
     left (see the module docstring). Writes the guidance twist (sensor frame, m/s) to ``key``
     every tick, zero while it chooses or out of contact; put it in parallel with
@@ -249,23 +108,12 @@ class FrontierGuidance(TactileBehaviour):
                           doc="Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a "
                               "recovering ``table_clearance`` guard finds it too close to the table; None or absent "
                               "otherwise).")
-    window_s = Parameter(1.0, bound=NON_NEGATIVE,
-                         doc="An attempt ends when the contact point moves less than ``min_travel_m`` in this time "
-                             "(s; 0 = no stall test).")
-    min_travel_m = Parameter(0.004, bound=NON_NEGATIVE, doc="See ``window_s`` (m).")
-    min_area_ratio = Parameter(0.5, bound=between(0, 1, high_open=True), unit=None,
-                               doc="An attempt ends when the contact shrinks below this fraction of its largest area "
-                                   "in the attempt (the pad has run half over an edge; 0 = off).")
-    max_jump_m = Parameter(0.01, bound=NON_NEGATIVE,
-                           doc="An attempt ends when the contact point jumps more than this from one cycle to the "
-                               "next (m; 0 = off): onto another object, such as the table. With the table's height "
-                               "known, only a jump down to the table counts (a soft, lumpy object's contact may jump "
-                               "between its parts).")
-    edge_turn_rad = Parameter(math.radians(10.0), bound=between(0, math.pi),
-                              doc="An attempt ends when the pad turns more than this within ``window_s``, away from "
-                                  "the vertical, at a radius of curvature below ``edge_radius_m``: it is rolling over "
-                                  "an edge (rad; 0 = off).")
-    edge_radius_m = Parameter(0.01, bound=NON_NEGATIVE, doc="See ``edge_turn_rad`` (m).")
+    end_key = Parameter(ATTEMPT_END_KEY, fixed=True,
+                        doc="Blackboard key where the end-of-surface leaves (:mod:`~tactile_bt.tree.behaviours."
+                            "surface_end`, with ``end_key``) write the end of an attempt.")
+    attempt_key = Parameter(ATTEMPT_KEY, fixed=True,
+                            doc="Blackboard key the attempt number is written to, so that those leaves start over "
+                                "with each attempt.")
     block_radius_m = Parameter(0.0, bound=NON_NEGATIVE,
                                doc="Radius around the pad centre within which frontier cells facing the way the pad "
                                    "went are blocked when the attempt ends at an edge (the contact shrinks or the pad "
@@ -282,17 +130,24 @@ class FrontierGuidance(TactileBehaviour):
     attempt_s = Parameter(4.0, bound=POSITIVE,
                           doc="Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back "
                               "off (s).")
-
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         super().__init__(name, *args, **parameters)
         self.key = normalise_key(self.key)
         self.table_key = normalise_key(self.table_key)
         self._writer = self.attach_blackboard_client(name=f"{self.name}/guidance")
         self._writer.register_key(key=self.key, access=Access.WRITE)
+        self._writer.register_key(key=FRONTIER_LEFT_KEY, access=Access.WRITE)
+        self.end_key = normalise_key(self.end_key)
+        self.attempt_key = normalise_key(self.attempt_key)
+        self._writer.register_key(key=self.attempt_key, access=Access.WRITE)
         self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self.alarm_key = normalise_key(self.alarm_key)
         self._setup.register_key(key=self.alarm_key, access=Access.READ)
+        self._setup.register_key(key=self.end_key, access=Access.READ)
+        if self.reapproach_key:
+            self.reapproach_key = normalise_key(self.reapproach_key)
+            self._writer.register_key(key=self.reapproach_key, access=Access.WRITE)
         #: The map of the touched surface (None before the first contact sample).
         self.map: FrontierMap | None = None
         self._map_cloud = None  # the cloud the map was filled from
@@ -311,16 +166,15 @@ class FrontierGuidance(TactileBehaviour):
         #: Ends of attempts by cause ("table", "tilt", "edge", "stall", "time", ...): what
         #: explains the frontier left open.
         self.ends: Counter = Counter()
+        #: Length (m) of the frontier by reason at the last choice (see :meth:`frontier_left`).
+        self.left: dict[str, float] = {}
+        self.coverage = 0.0
+        self.below_m2 = 0.0
+        #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
+        self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         self._alarmed = False  # backing off from the guard's current alarm
         self._state = "waiting for contact"
         self._reset_motion()
-
-    def parameters_changed(self, changed: frozenset[str]) -> None:
-        """Pass the parameters of the end-of-surface test on to it (built on first use)."""
-        if "_end" not in self.__dict__:
-            self._end = StripeEnd(name=f"{self.name}/end")  # the end-of-surface test of an attempt
-        for name in changed & set(_END_PARAMETERS):
-            self._end.set_parameter(name, getattr(self, name))
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -340,24 +194,13 @@ class FrontierGuidance(TactileBehaviour):
         cloud = self._cloud
         if cloud is not self._map_cloud:  # another mission's cloud: start again
             self.map, self._map_cloud, self._seen = None, cloud, 0
+            self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         n = len(cloud)
         if n > self._seen:
             if self.map is None:
                 self.map = FrontierMap(point[:2], self.cell_m, self.extent_m)
             self.map.add(cloud.points[self._seen:n], cloud.normals[self._seen:n])
             self._seen = n
-
-    def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows, columns and outward directions of the reachable, unblocked frontier cells."""
-        m = self.map
-        rows, cols, out = m.frontier()
-        if len(rows) == 0:
-            return rows, cols, out
-        ok = m.tilt(rows, cols) <= self.max_tilt_rad - self.tilt_margin_rad
-        if math.isfinite(self.table_z_m):  # the object's foot at the table is no frontier
-            ok &= m.z_max[rows, cols] > self.table_z_m + self.table_clearance_m
-        ok &= ~m.blocked[rows, cols, _sector(out)]
-        return rows[ok], cols[ok], out[ok]
 
     # -- the pad -----------------------------------------------------------------------------
     def _contact_point(self) -> np.ndarray | None:
@@ -455,7 +298,7 @@ class FrontierGuidance(TactileBehaviour):
         self._deadline = self.now + dist[k] / self.speed_mps + self.attempt_s
         self._clearance_start = clearance
         self.attempts += 1
-        self._end.initialise()
+        write(self.attempt_key, self.attempts)  # the end-of-surface leaves start over
         self._steer(point)
         return True
 
@@ -473,16 +316,11 @@ class FrontierGuidance(TactileBehaviour):
 
     def _attempt_end(self, point: np.ndarray) -> tuple[str, bool]:
         """Why the current attempt has come to an end ("" while it goes on), and whether at an
-        edge under the pad."""
-        if self._end.update() != Status.RUNNING:
-            if (self._end.cause == "jump" and math.isfinite(self.table_z_m)
-                    and point[2] > self.table_z_m + self.table_clearance_m):
-                # not onto the table (known): another part of the same contact, e.g. on a soft,
-                # lumpy object; go on
-                self._end.initialise()
-                return "", False
-            self._cause = self._end.cause
-            return self._end.feedback_message, self._end.cause in _EDGE_CAUSES
+        edge under the pad: an end-of-surface leaf's (on ``end_key``), the table or the time."""
+        end = read_or(self.end_key)
+        if end is not None and end.get("attempt") == self.attempts:
+            self._cause = end["cause"]
+            return end["message"], self._cause in _EDGE_CAUSES
         clearance, _ = self._clearance()
         if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:
             self._cause = "table"
@@ -501,8 +339,10 @@ class FrontierGuidance(TactileBehaviour):
         else:  # too steep, the table, stuck: only this part of the frontier is out of reach
             radius, centre = self.local_block_radius_m, point
         d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
-        self.map.block(centre[:2], radius, d)
-        self.map.block(point[:2], 2 * self.cell_m, d)
+        cause = cause or why
+        tilt = math.acos(max(-1.0, min(1.0, self._tilt_cos())))
+        self.map.block(centre[:2], radius, d, cause=cause, pad_tilt_rad=tilt)
+        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause, pad_tilt_rad=tilt)
         if self.target is not None:
             # the target and the frontier on the way to it, out of reach along this way
             rows, cols, out = self.map.frontier()
@@ -512,9 +352,9 @@ class FrontierGuidance(TactileBehaviour):
             u = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
             on_way = np.linalg.norm(xy - (a + u[:, None] * ab), axis=1) <= self.local_block_radius_m
             on_way |= (rows == self.target[0]) & (cols == self.target[1])
-            self.map.block_cells(rows[on_way], cols[on_way], out[on_way])
+            self.map.block_cells(rows[on_way], cols[on_way], out[on_way], cause)
         self.blocks += 1
-        self.ends[cause or why] += 1
+        self.ends[cause] += 1
         self.last_end = why
         self._avoid = np.array(d, dtype=float)
         self.target = None
@@ -592,6 +432,7 @@ class FrontierGuidance(TactileBehaviour):
         if now >= self._next_plan:
             self._next_plan = now + self.replan_s
             self._update_map(point)
+            self._reapproached()
             if self.map is None:  # nothing recorded yet
                 self._guide(None)
                 self._state = "waiting for the first contacts"
@@ -604,8 +445,23 @@ class FrontierGuidance(TactileBehaviour):
                 if not self._choose(point):
                     self._guide(None)
                     explained = f": {self.explained()}" if self.ends else ""
-                    self.feedback_message = (f"no reachable frontier left ({self.attempts} targets, "
-                                             f"{self.blocks} ends of the surface{explained})")
+                    counts = f"{self.attempts} targets, {self.blocks} ends of the surface{explained}"
+                    left = describe_left(self.frontier_left())
+                    if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
+                        self.feedback_message = (f"no reachable frontier left, but about {100 * (1 - self.coverage):.0f} % "
+                                                 f"of the surface untouched near the table ({self.below_m2 * 1e4:.1f} cm² "
+                                                 f"below the frontier the table kept the pad from; {left}) ({counts})")
+                        return Status.FAILURE
+                    if self.unexplained_m() > self.max_unexplained_m:
+                        job = self._reapproach(point)
+                        if job is not None:
+                            x, y = job["frontier_xy"] * 1e3
+                            self.feedback_message = (f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm: {left} "
+                                                     f"({counts})")
+                            return Status.FAILURE
+                        self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
+                        return Status.FAILURE
+                    self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"
                     return Status.SUCCESS
                 if self._retreat is not None and self._retreating(point):
                     return Status.RUNNING

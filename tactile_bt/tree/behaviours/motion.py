@@ -12,6 +12,7 @@ import numpy as np
 from py_trees.common import Access, Status
 
 from tactile_bt import defaults
+from tactile_bt.perception.features import wrap_half_pi
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.blackboard import read
 from tactile_bt.tree.declaration import Parameter
@@ -82,6 +83,16 @@ class GuidedSlide(TactileBehaviour):
     when the leaf starts. With ``require_contact`` the pad only slides while in contact.
     SUCCESS after ``distance_m`` of travel or ``duration_s`` of mission time when given
     (0 = unlimited), otherwise RUNNING.
+
+    **Guidance scaling.** With ``slow_turn_rad`` or ``slow_offset_m`` set, the twist is scaled
+    each cycle by ``1 / (1 + (e_a / slow_turn_rad)² + (e_l / slow_offset_m)²)``, bounded below by
+    ``min_scale``: ``e_a`` is the angle between the contact's major axis and the direction of
+    travel (the twist's linear part in the pad plane; modulo pi), ``e_l`` the centre of
+    pressure's distance from the pad centre across the travel (both from the smoothed
+    features). Where a followed line turns in the pad or bends, the pad slows and the aligning
+    servos keep up; on straight parts, with errors well below those scales, it slides at nearly
+    the full twist again, speeding up by at most ``speedup_per_s`` of the full twist per second.
+    A contact without a defined axis slides at ``min_scale``.
     """
 
     twist = Parameter((0.0, defaults.SLIDE_SPEED_MPS, 0.0, 0.0, 0.0, 0.0), type=Sequence[float], unit=TWIST,
@@ -92,13 +103,27 @@ class GuidedSlide(TactileBehaviour):
     require_contact = Parameter(True, doc="Slide only while in contact (otherwise wait, RUNNING).")
     distance_m = Parameter(0.0, bound=NON_NEGATIVE, doc="Succeed after this linear travel (m; 0 = unlimited).")
     duration_s = Parameter(0.0, bound=NON_NEGATIVE, doc="Succeed after this mission time (s; 0 = unlimited).")
+    slow_turn_rad = Parameter(0.0, bound=NON_NEGATIVE, fixed=True,
+                              doc="Angle of the contact's axis to the travel at which the guidance halves (rad; 0 = "
+                                  "the angle does not slow it).")
+    slow_offset_m = Parameter(0.0, bound=NON_NEGATIVE, fixed=True,
+                              doc="Distance of the centre of pressure from the pad centre, across the travel, at "
+                                  "which the guidance halves (m; 0 = the offset does not slow it).")
+    min_scale = Parameter(0.25, bound=between(0.0, 1.0, low_open=True), unit=None,
+                          doc="Lowest share of the twist the guidance scaling leaves.")
+    speedup_per_s = Parameter(1.0, bound=POSITIVE, unit="1/s",
+                              doc="Largest growth of the guidance scale per second of mission time (1/s).")
     #: The key named by ``twist_key`` holds a value like ``twist`` (checked by ``--blackboard``).
     key_parameters = {"twist_key": "twist"}
     travelled = 0.0
     _start = 0.0
+    #: The share of the twist added this cycle (guidance scaling).
+    scale = 1.0
 
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         super().__init__(name, *args, **parameters)
+        if self.slow_turn_rad > 0 or self.slow_offset_m > 0:
+            self.uses = frozenset({"orientation", "cop"})
         if self.twist_key:
             self._key = normalise_key(self.twist_key)
             self._external = self.attach_blackboard_client(name=f"{self.name}/external")
@@ -116,6 +141,7 @@ class GuidedSlide(TactileBehaviour):
     def initialise(self) -> None:
         self.travelled = 0.0
         self._start = self.now
+        self.scale = 1.0
         if self.twist_key and not self._external.exists(self._key):
             raise BlackboardReferenceError(f"{self.name}: blackboard key {self._key!r} (twist_key) is not set; "
                            "write the twist there before the leaf starts")
@@ -128,7 +154,27 @@ class GuidedSlide(TactileBehaviour):
 
     def describe(self) -> str:
         """Travel so far while sliding."""
+        if self.uses:
+            return f"sliding, {self.travelled * 1e3:.1f} mm, at {self.scale:.0%} of the guidance"
         return f"sliding, {self.travelled * 1e3:.1f} mm"
+
+    def _guidance_scale(self, twist) -> float:
+        """The scale of this cycle (see the class docstring); updates :attr:`scale`."""
+        f = self.features
+        travel = math.atan2(twist[1], twist[0])
+        angle = f.orientation
+        if angle != angle:
+            target = self.min_scale
+        else:
+            slowing = 0.0
+            if self.slow_turn_rad > 0:
+                slowing += (wrap_half_pi(angle - travel) / self.slow_turn_rad) ** 2
+            if self.slow_offset_m > 0:
+                x, y = f.cop_xy
+                slowing += ((y * math.cos(travel) - x * math.sin(travel)) / self.slow_offset_m) ** 2
+            target = max(self.min_scale, 1.0 / (1.0 + slowing))
+        self.scale = min(target, self.scale + self.speedup_per_s * self.dt)
+        return self.scale
 
     def update(self) -> Status:
         if self.distance_m > 0 and self.travelled >= self.distance_m:
@@ -149,6 +195,10 @@ class GuidedSlide(TactileBehaviour):
             speed = math.sqrt(twist[0] * twist[0] + twist[1] * twist[1] + twist[2] * twist[2])
         else:
             twist, speed = self._twist, self._speed
+        if self.uses:
+            scale = self._guidance_scale(twist)
+            twist = [v * scale for v in twist]
+            speed *= scale
         self.command.add(self.name, twist)
         self.travelled += speed * self.dt
         self._feedback = None

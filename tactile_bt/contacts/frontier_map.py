@@ -1,0 +1,297 @@
+"""Frontiers of a touched surface: an occupancy grid of the contact cloud in the table plane.
+
+:class:`FrontierMap` bins contact samples (world points and outward normals) into ``cell_m``
+cells of the table plane (world x, y). The *frontier* is the set of touched cells next to
+untouched ones: an open boundary of the covered area, with the outward direction towards the
+untouched side. Each frontier cell may be *blocked* per direction sector (an attempt to cross it
+that way has failed), with the cause of the failure kept, and :meth:`FrontierMap.classify` tells
+for every frontier cell why it is closed ("table": the object's foot at the table; "tilt": the
+surface there is steeper than the pad may tilt; the cause of a block) or that it is still open
+(""). :meth:`FrontierMap.remainder` sums the frontier by reason, for a scan's report of what it
+left and why. Pure geometry: no time, no robot, no tree.
+
+Layer: contacts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "EXPLAINING", "sector", "describe_left"]
+
+#: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
+SMALL_HOLE_CELLS = 2
+#: Number of direction sectors a cell is blocked in (45° each).
+SECTORS = 8
+#: The reason :meth:`FrontierMap.classify` gives an open (reachable, unblocked) frontier cell.
+OPEN = ""
+#: The reason of a frontier cell without a sample of its own (a gap between samples).
+GAP = "gap"
+#: Reasons of the frontier left that explain it (see :meth:`FrontierMap.classify`): the object's
+#: foot at the table, a surface steeper than the pad may tilt, a place the arm cannot reach (a
+#: re-approach found it so). Every other reason (an edge, a
+#: stall, a jump, a lost contact, a target not reached in time, or no attempt at all) leaves that
+#: frontier unexplained: the surface beyond may go on.
+EXPLAINING = frozenset({"table", "tilt", "reach"})
+#: 8-neighbour offsets (row = y, column = x) and their unit directions.
+_OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
+_OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
+
+
+def sector(direction_xy: np.ndarray) -> np.ndarray:
+    """Sector index (0..SECTORS-1) of world xy directions ``(..., 2)``."""
+    angle = np.arctan2(direction_xy[..., 1], direction_xy[..., 0])
+    return np.round(angle / (2 * math.pi / SECTORS)).astype(int) % SECTORS
+
+
+def describe_left(left: dict) -> str:
+    """One line for the frontier left, ``{"explained": {reason: m}, "unexplained": {reason: m}}``:
+    "35 mm unexplained (20 edge, 15 open); 120 mm explained (100 table, 20 tilt)" (the rough
+    area estimates beside them stay in the report's ``frontier``)."""
+    parts = []
+    for kind in ("unexplained", "explained"):
+        lengths = left.get(kind) or {}
+        total = sum(lengths.values())
+        if total > 0:
+            detail = ", ".join(f"{v * 1e3:.0f} {k or 'open'}" for k, v in sorted(lengths.items(), key=lambda kv: -kv[1]))
+            parts.append(f"{total * 1e3:.0f} mm {kind} ({detail})")
+    return "; ".join(parts) or "none"
+
+
+class FrontierMap:
+    """Occupancy grid of the touched surface in the table plane.
+
+    ``cell_m`` cells over a square of half-size ``extent_m`` around ``centre`` (world x, y).
+    Each cell holds the number of contact samples in it, the sum of their outward normals and the
+    highest sample; ``blocked[row, col, sector]`` marks the directions in which an attempt to
+    cross the cell has failed, and ``cause[row, col, sector]`` indexes :attr:`causes`: why it
+    failed there last (-1: never).
+    """
+
+    def __init__(self, centre_xy, cell_m: float = 0.002, extent_m: float = 0.3) -> None:
+        self.cell_m = float(cell_m)
+        self.n = int(math.ceil(2 * extent_m / cell_m))
+        self.origin = np.asarray(centre_xy, dtype=float)[:2] - 0.5 * self.n * self.cell_m
+        self.count = np.zeros((self.n, self.n), dtype=np.int32)
+        self.normal_sum = np.zeros((self.n, self.n, 3))
+        self.z_max = np.full((self.n, self.n), -np.inf)
+        self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
+        self.cause = np.full((self.n, self.n, SECTORS), -1, dtype=np.int16)
+        #: Tilt (rad) of the pad from the vertical when an attempt ended in the cell at the table.
+        self.table_tilt = np.full((self.n, self.n), np.nan)
+        #: The causes of blocks, in the order they first came.
+        self.causes: list[str] = []
+        self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
+        self._col_any = np.zeros(self.n, dtype=bool)
+
+    def cell_of(self, xy: np.ndarray) -> np.ndarray:
+        """(row, col) indices of world xy points ``(k, 2)``; may lie outside the grid."""
+        ij = np.floor((np.asarray(xy)[..., :2] - self.origin) / self.cell_m).astype(int)
+        return ij[..., ::-1]
+
+    def centre_of(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """World xy (m) of the centres of cells ``(rows, cols)``, ``(k, 2)``."""
+        return self.origin + (np.column_stack((cols, rows)) + 0.5) * self.cell_m
+
+    def add(self, points: np.ndarray, normals: np.ndarray) -> int:
+        """Add contact samples (world points and outward normals, ``(k, 3)``); returns how many
+        fell inside the grid."""
+        rc = self.cell_of(points)
+        inside = np.all((rc >= 0) & (rc < self.n), axis=1)
+        rows, cols = rc[inside, 0], rc[inside, 1]
+        np.add.at(self.count, (rows, cols), 1)
+        np.add.at(self.normal_sum, (rows, cols), normals[inside])
+        np.maximum.at(self.z_max, (rows, cols), points[inside, 2])
+        self._row_any[rows] = True
+        self._col_any[cols] = True
+        return int(inside.sum())
+
+    def _window(self) -> tuple[slice, slice]:
+        """The part of the grid around the touched cells (one cell of margin)."""
+        rows = np.flatnonzero(self._row_any)
+        cols = np.flatnonzero(self._col_any)
+        if not len(rows):
+            return slice(0, 0), slice(0, 0)
+        return (slice(max(rows[0] - 1, 0), min(rows[-1] + 2, self.n)),
+                slice(max(cols[0] - 1, 0), min(cols[-1] + 2, self.n)))
+
+    @staticmethod
+    def _touched(count: np.ndarray) -> np.ndarray:
+        t = count > 0
+        # gaps one cell wide between touched cells (either way, or diagonally)
+        p = np.pad(t, 1)
+        h, w = t.shape
+
+        def at(dy: int, dx: int) -> np.ndarray:
+            return p[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + w]
+
+        t = t | (at(0, -1) & at(0, 1)) | (at(-1, 0) & at(1, 0)) | (at(-1, -1) & at(1, 1)) | (at(-1, 1) & at(1, -1))
+        holes, n = ndimage.label(~t)
+        if n:
+            sizes = np.bincount(holes.ravel())
+            small = sizes <= SMALL_HOLE_CELLS
+            small[0] = False
+            t = t | small[holes]
+        return t
+
+    @property
+    def touched(self) -> np.ndarray:
+        """Cells holding a sample, the gaps one cell wide between them and the holes of at most
+        :data:`SMALL_HOLE_CELLS` cells among them: with the imprint sampled every 2.5 mm on the
+        pad, a line of 2 mm cells may stay empty between samples that cover it (within 2 mm)
+        from both sides."""
+        out = np.zeros((self.n, self.n), dtype=bool)
+        w = self._window()
+        out[w] = self._touched(self.count[w])
+        return out
+
+    def tilt(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Tilt (rad) from the vertical of the mean outward normal in the cells ``(rows, cols)``
+        (NaN where untouched)."""
+        s = self.normal_sum[rows, cols]
+        norm = np.linalg.norm(s, axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.arccos(np.clip(s[..., 2] / norm, -1.0, 1.0))
+
+    def frontier(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows, columns and outward directions ``(k, 2)`` (world xy, unit) of the frontier
+        cells: touched cells with an untouched 8-neighbour; outward points to the untouched
+        ones."""
+        w = self._window()
+        t = self._touched(self.count[w])
+        h, wd = t.shape
+        padded = np.pad(~t, 1, constant_values=True)
+        out = np.zeros((h, wd, 2))
+        for (dy, dx), d in zip(_OFFSETS, _OFFSET_DIRS):
+            out[padded[1 + dy: 1 + dy + h, 1 + dx: 1 + dx + wd]] += d
+        norm = np.linalg.norm(out, axis=2)
+        rows, cols = np.nonzero(t & (norm > 1e-9))
+        vec = out[rows, cols] / norm[rows, cols, None]
+        return rows + w[0].start, cols + w[1].start, vec
+
+    def _cause_index(self, cause: str) -> int:
+        if cause not in self.causes:
+            self.causes.append(cause)
+        return self.causes.index(cause)
+
+    def block_cells(self, rows: np.ndarray, cols: np.ndarray, directions_xy: np.ndarray, cause: str = "") -> None:
+        """Block the cells ``(rows, cols)`` each for crossings in its own direction (``(k, 2)``,
+        world xy) and the two neighbouring sectors, for ``cause``."""
+        s = sector(np.asarray(directions_xy, dtype=float))
+        c = self._cause_index(cause)
+        for k in (-1, 0, 1):
+            self.blocked[rows, cols, (s + k) % SECTORS] = True
+            self.cause[rows, cols, (s + k) % SECTORS] = c
+
+    def block(self, centre_xy, radius_m: float, direction_xy, rows=None, cols=None, cause: str = "",
+              pad_tilt_rad: float = math.nan) -> int:
+        """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy; and the cells
+        ``rows, cols``) for crossings in ``direction_xy`` and its two neighbouring sectors, for
+        ``cause`` (with the pad's tilt then, ``pad_tilt_rad``, kept for "table" in
+        :attr:`table_tilt`); returns how many cells were newly blocked in the direction's own
+        sector."""
+        d = np.asarray(direction_xy, dtype=float)[:2]
+        s = int(sector(d))
+        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
+        r = int(math.ceil(radius_m / self.cell_m))
+        lo = np.maximum(c - r, 0)
+        hi = np.minimum(c + r + 1, self.n)
+        if np.all(hi > lo):
+            rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
+            inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
+            rr, cc = rr[inside], cc[inside]
+        else:
+            rr = cc = np.zeros(0, dtype=int)
+        if rows is not None:
+            rr = np.concatenate((rr, np.asarray(rows, dtype=int)))
+            cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
+        before = int(self.blocked[rr, cc, s].sum())
+        c = self._cause_index(cause)
+        if cause == "table" and math.isfinite(pad_tilt_rad):
+            self.table_tilt[rr, cc] = np.fmax(self.table_tilt[rr, cc], pad_tilt_rad)
+        for k in (s - 1, s, s + 1):
+            self.blocked[rr, cc, k % SECTORS] = True
+            self.cause[rr, cc, k % SECTORS] = c
+        return int(self.blocked[rr, cc, s].sum()) - before
+
+    def classify(self, max_tilt_rad: float, table_z_m: float = math.nan, table_clearance_m: float = 0.0
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows, columns, outward directions ``(k, 2)`` and reasons ``(k,)`` (str) of the
+        frontier cells. The reason is "table" where the highest sample of the cell lies within
+        ``table_clearance_m`` of the table (``table_z_m``, world z; NaN: no table): the object's
+        foot; "tilt" where the touched surface is tilted more than ``max_tilt_rad`` from the
+        vertical; the cause of the block in the outward direction where an attempt to cross it
+        has failed; :data:`GAP` in the cells that count as touched without a sample of their own
+        (between samples, see :attr:`touched`); :data:`OPEN` ("") where the frontier is still to be crossed."""
+        rows, cols, out = self.frontier()
+        reason = np.full(len(rows), OPEN, dtype=object)
+        if not len(rows):
+            return rows, cols, out, reason
+        c = self.cause[rows, cols, sector(out)]
+        blocked = self.blocked[rows, cols, sector(out)]
+        names = np.array(self.causes + [OPEN], dtype=object)
+        reason[blocked] = names[c[blocked]]
+        reason[self.tilt(rows, cols) > max_tilt_rad] = "tilt"
+        if math.isfinite(table_z_m):
+            reason[self.z_max[rows, cols] <= table_z_m + table_clearance_m] = "table"
+        reason[self.count[rows, cols] == 0] = GAP
+        return rows, cols, out, reason
+
+    def remainder(self, max_tilt_rad: float, table_z_m: float = math.nan, table_clearance_m: float = 0.0
+                  ) -> dict[str, float]:
+        """Length (m) of the frontier by reason (see :meth:`classify`; "" for the open part): a
+        frontier cell counts one cell edge."""
+        _, _, _, reason = self.classify(max_tilt_rad, table_z_m, table_clearance_m)
+        names, counts = np.unique(reason.astype(str), return_counts=True)
+        return {str(n): float(k) * self.cell_m for n, k in zip(names, counts)}
+
+    def normal_at(self, row: int, col: int) -> np.ndarray:
+        """Mean outward normal (unit, world) of the samples in cell ``(row, col)`` (+z where it
+        has none)."""
+        n = self.normal_sum[row, col]
+        norm = float(np.linalg.norm(n))
+        return n / norm if norm > 0 else np.array([0.0, 0.0, 1.0])
+
+    def unblock(self, centre_xy, radius_m: float) -> None:
+        """Clear the blocks of the cells within ``radius_m`` (m) of ``centre_xy`` (world xy), in
+        every direction: the surface there has been reached another way."""
+        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
+        r = int(math.ceil(radius_m / self.cell_m))
+        lo, hi = np.maximum(c - r, 0), np.minimum(c + r + 1, self.n)
+        if np.any(hi <= lo):
+            return
+        rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
+        inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
+        self.blocked[rr[inside], cc[inside]] = False
+        self.cause[rr[inside], cc[inside]] = -1
+
+    def close(self, centre_xy, radius_m: float, cause: str) -> None:
+        """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy) in every direction,
+        for ``cause``."""
+        for k in range(SECTORS):
+            angle = 2 * math.pi * k / SECTORS
+            self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
+
+    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, table_z_m: float, steep_rad: float,
+                        reach_m: float = math.inf) -> float:
+        """Estimated area (m², in the table plane) of the surface left between the frontier
+        cells ``(rows, cols)`` and the table at ``table_z_m`` where an attempt ended at the
+        table (:attr:`table_tilt`) with the pad tilted less than ``steep_rad``: each cell's edge
+        times the run down to the table at the pad's tilt then, ``(z - table) / tan(tilt)``, at
+        most ``reach_m · cos(tilt)`` (the pad's lowest corner, at most ``reach_m`` from the
+        contact, was at the table). A pad stopped steeper was on the object's side; the surface
+        below is left out."""
+        if not len(rows) or not math.isfinite(table_z_m):
+            return 0.0
+        tilt = self.table_tilt[rows, cols]
+        shallow = tilt < steep_rad  # NaN (no such end) is not
+        drop = np.maximum(self.z_max[rows, cols][shallow] - table_z_m, 0.0)
+        tilt = np.maximum(tilt[shallow], math.radians(5.0))
+        return float(np.sum(self.cell_m * np.minimum(drop / np.tan(tilt), reach_m * np.cos(tilt))))
+
+    def touched_area(self) -> float:
+        """Area (m², in the table plane) of the touched cells."""
+        return float(np.count_nonzero(self.touched)) * self.cell_m**2

@@ -1,0 +1,108 @@
+"""The frontier map of a touched surface: its frontier, its blocked directions and the reasons
+it gives for the frontier left (contacts layer, pure geometry)."""
+
+import math
+
+import numpy as np
+import numpy.testing as npt
+
+from tactile_bt.contacts.frontier_map import GAP, OPEN, FrontierMap
+
+
+def disc(radius: float, centre=(0.0, 0.0), z: float = 0.05, step: float = 0.001, normal=(0.0, 0.0, 1.0)):
+    g = np.arange(-radius, radius + 1e-9, step)
+    X, Y = np.meshgrid(g, g)
+    keep = X**2 + Y**2 <= radius**2
+    pts = np.column_stack((X[keep] + centre[0], Y[keep] + centre[1], np.full(keep.sum(), z)))
+    return pts, np.tile(np.asarray(normal, float) / np.linalg.norm(normal), (len(pts), 1))
+
+
+def test_frontier_is_the_rim_of_the_touched_disc_with_outward_directions():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.1)
+    m.add(*disc(0.02))
+    rows, cols, out = m.frontier()
+    xy = m.centre_of(rows, cols)
+    r = np.linalg.norm(xy, axis=1)
+    assert len(rows) > 40
+    assert np.all(np.abs(r - 0.02) < 0.004)
+    radial = xy / r[:, None]
+    assert np.all(np.sum(radial * out, axis=1) > 0.7)
+
+
+def test_thin_gaps_and_small_holes_are_not_frontier_but_a_wide_gap_is():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
+    pts, normals = disc(0.03, step=0.0005)
+    for lo, hi in ((0.0, 0.002), (0.011, 0.0172)):  # a gap one cell wide, one three cells wide
+        keep = ~((pts[:, 0] >= lo) & (pts[:, 0] < hi))
+        pts, normals = pts[keep], normals[keep]
+    hole = (np.abs(pts[:, 0] + 0.010) < 0.0015) & (np.abs(pts[:, 1]) < 0.001)  # a small hole
+    m.add(pts[~hole], normals[~hole])
+    rows, cols, _ = m.frontier()
+    x = m.centre_of(rows, cols)[:, 0]
+    inner = np.linalg.norm(m.centre_of(rows, cols), axis=1) < 0.025
+    assert not np.any(inner & (np.abs(x - 0.001) < 0.002))     # the thin gap is covered
+    assert not np.any(inner & (np.abs(x + 0.010) < 0.003))     # the small hole too
+    assert np.any(inner & (x > 0.008) & (x < 0.02))            # the wide gap is open
+
+
+def test_blocking_covers_a_disc_and_the_neighbouring_directions_only():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
+    m.block((0.01, 0.0), 0.005, (1.0, 0.0))
+    r, c = m.cell_of(np.array([[0.01, 0.0], [0.02, 0.0]])).T
+    assert m.blocked[r[0], c[0]].tolist() == [True, True, False, False, False, False, False, True]
+    assert not m.blocked[r[1], c[1]].any()
+
+
+
+
+def test_the_frontier_left_is_explained_by_the_table_the_tilt_and_the_blocks_causes():
+    # a dome seen from above: flat top, rim tilted 75° (steeper than a 60° limit) on the -x side,
+    # its foot at the table on the +y side, blocked by an edge on the +x side; -y stays open
+    rng = np.random.default_rng(0)
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)
+    pts, normals = disc(0.03, step=0.0005)
+    pts = pts + rng.normal(0.0, 1e-5, pts.shape)
+    steep = pts[:, 0] < -0.024
+    normals[steep] = (-math.sin(math.radians(75)), 0.0, math.cos(math.radians(75)))
+    foot = pts[:, 1] > 0.024
+    pts[foot, 2] = 0.001
+    m.add(pts, normals)
+    m.block((0.03, 0.0), 0.012, (1.0, 0.0), cause="edge")
+    rows, cols, out, reason = m.classify(math.radians(60), table_z_m=0.0, table_clearance_m=0.003)
+    xy = m.centre_of(rows, cols)
+    sampled = reason != GAP
+    assert set(reason[sampled & (xy[:, 0] < -0.026)]) == {"tilt"}
+    assert set(reason[sampled & (xy[:, 1] > 0.026)]) == {"table"}
+    assert set(reason[sampled & (xy[:, 0] > 0.026) & (np.abs(xy[:, 1]) < 0.006)]) == {"edge"}
+    assert set(reason[sampled & (xy[:, 1] < -0.026) & (np.abs(xy[:, 0]) < 0.01)]) == {OPEN}
+    left = m.remainder(math.radians(60), table_z_m=0.0, table_clearance_m=0.003)
+    npt.assert_allclose(sum(left.values()), len(rows) * m.cell_m)
+    assert left[OPEN] > left["edge"] > 0.0
+
+
+def test_without_a_table_or_blocks_the_whole_rim_is_open():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)
+    m.add(*disc(0.02))
+    left = m.remainder(math.radians(70))
+    assert set(left) <= {OPEN, GAP}
+    npt.assert_allclose(left[OPEN], 2 * math.pi * 0.02, rtol=0.35)  # the rim's length, in cells
+
+
+def test_the_area_left_near_the_table_counts_only_where_a_shallow_pad_was_stopped_by_it():
+    # a face rising at 30° from x = 0 (z = 10 mm) to x = 40 mm; the table at z = 0
+    rng = np.random.default_rng(3)
+    m = FrontierMap((0.02, 0.0), cell_m=0.002, extent_m=0.06)
+    x = rng.uniform(0.0, 0.04, 5000)
+    y = rng.uniform(-0.02, 0.02, 5000)
+    slope = math.radians(30)
+    m.add(np.column_stack((x, y, 0.01 + x * math.tan(slope))),
+          np.tile((-math.sin(slope), 0.0, math.cos(slope)), (5000, 1)))
+    m.block((0.0, 0.0), 0.03, (-1.0, 0.0), cause="table", pad_tilt_rad=slope)
+    rows, cols, out, reason = m.classify(math.radians(65), table_z_m=0.0)
+    low = (reason == "table") & (m.centre_of(rows, cols)[:, 0] < 0.003)
+    area = m.untouched_below(rows[low], cols[low], 0.0, math.radians(65))
+    # about 40 mm of edge, 10 mm / tan 30° = 17 mm down to the table
+    npt.assert_allclose(area, 0.04 * 0.01 / math.tan(slope), rtol=0.3)
+    assert m.untouched_below(rows[low], cols[low], 0.0, math.radians(25)) == 0.0  # a steeper pad: the side
+    npt.assert_allclose(m.untouched_below(rows[low], cols[low], 0.0, math.radians(65), reach_m=0.01),
+                        0.04 * 0.01 * math.cos(slope), rtol=0.3)

@@ -1,0 +1,67 @@
+"""Choosing where to approach a touched surface anew, and what its result does to the frontier
+left (contacts layer, pure geometry)."""
+
+import math
+
+import numpy as np
+import numpy.testing as npt
+
+from tactile_bt.contacts.frontier_map import OPEN, FrontierMap
+from tactile_bt.contacts.reapproach_plan import ReapproachPlan, clamp_tilt
+
+SLOPE = math.radians(40)
+
+
+def face_up_to_a_ridge(rng):
+    """Samples of a face rising at 40° towards +x up to a ridge along y at x = 0 (the face
+    beyond, falling towards +x, untouched)."""
+    x = rng.uniform(-0.04, 0.0, 4000)
+    y = rng.uniform(-0.03, 0.03, 4000)
+    pts = np.column_stack((x, y, 0.05 + x * math.tan(SLOPE)))
+    normal = np.array([-math.sin(SLOPE), 0.0, math.cos(SLOPE)])
+    return pts, np.tile(normal, (len(pts), 1))
+
+
+def test_a_frontier_at_a_ridge_the_pad_stalled_at_is_probed_beyond_it_along_the_touched_normal():
+    rng = np.random.default_rng(1)
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.08)
+    m.add(*face_up_to_a_ridge(rng))
+    m.block((0.0, 0.0), 0.04, (1.0, 0.0), cause="stall")  # every attempt over the ridge stalled
+    rows, cols, out, reason = m.classify(math.radians(65))
+    plan = ReapproachPlan(beyond_m=0.02, radius_m=0.02)
+    job = plan.choose(m, rows, cols, out, reason, from_xy=np.array([-0.006, 0.0]), max_tilt_rad=math.radians(65))
+    point, normal = job["probe"]
+    assert -0.002 <= job["frontier_xy"][0] <= 0.002            # at the ridge
+    assert point[0] > 0.015                                    # beyond it
+    npt.assert_allclose(normal, [-math.sin(SLOPE), 0.0, math.cos(SLOPE)], atol=1e-9)
+    npt.assert_allclose(job["top_z"], 0.05, atol=0.002)
+    # the surface found there: the ridge's frontier is open to sliding again
+    job["result"] = "surface"
+    assert plan.apply(m, job) == "surface"
+    rows, cols, out, reason = m.classify(math.radians(65))
+    near = np.linalg.norm(m.centre_of(rows, cols) - job["frontier_xy"], axis=1) < 0.015
+    assert set(reason[near]) == {OPEN}
+    # the next one is not chosen within 20 mm of the first
+    nxt = plan.choose(m, rows, cols, out, reason, from_xy=job["frontier_xy"], max_tilt_rad=math.radians(65))
+    assert nxt is not None and np.linalg.norm(nxt["frontier_xy"] - job["frontier_xy"]) > 0.02
+
+
+def test_the_table_found_beyond_a_frontier_explains_it():
+    rng = np.random.default_rng(2)
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.08)
+    m.add(*face_up_to_a_ridge(rng))
+    m.block((0.0, 0.0), 0.04, (1.0, 0.0), cause="stall")
+    rows, cols, out, reason = m.classify(math.radians(65))
+    plan = ReapproachPlan()
+    job = plan.choose(m, rows, cols, out, reason, np.array([0.0, 0.0]), math.radians(65))
+    job["result"] = "table"
+    plan.apply(m, job)
+    left = m.remainder(math.radians(65))
+    assert left.get("table", 0.0) > 0.02
+
+
+def test_a_normal_steeper_than_the_limit_is_turned_up_to_it():
+    n = np.array([math.sin(math.radians(80)), 0.0, math.cos(math.radians(80))])
+    c = clamp_tilt(n, math.radians(60))
+    npt.assert_allclose(c, [math.sin(math.radians(60)), 0.0, math.cos(math.radians(60))])
+    npt.assert_allclose(clamp_tilt(np.array([0.0, 0.0, 1.0]), 0.5), [0.0, 0.0, 1.0])

@@ -1,0 +1,64 @@
+"""The reapproach leaf: lift off, move clear and approach a probe point anew along its normal,
+on a kinematic pad that follows the commanded twist."""
+
+import math
+
+import numpy as np
+import numpy.testing as npt
+import py_trees
+from py_trees.common import Status
+from scipy.spatial.transform import Rotation
+
+from tactile_bt.control.spatial import make_pose
+from tactile_bt.testing import LeafHarness, make_features
+from tactile_bt.tree.behaviours import Reapproach
+
+DOWN = Rotation.from_euler("x", 180, degrees=True)
+DT = 1.0 / 250.0
+
+
+def fly(h, touching, max_ticks=6000):
+    """Tick, moving the pad by the commanded twist (sensor frame); in contact with 2 kPa where
+    ``touching(pose)``. The status and the pose at the end."""
+    T = np.asarray(py_trees.blackboard.Blackboard.storage["/tactile/pose"], dtype=float).copy()
+    status = Status.RUNNING
+    for _ in range(max_ticks):
+        contact = touching(T)
+        status = h.tick(make_features(pressure=2000.0) if contact else make_features(in_contact=False))
+        if status != Status.RUNNING:
+            break
+        twist = np.asarray(h.command.twist(), dtype=float)
+        R = T[:3, :3]
+        T = T.copy()
+        T[:3, 3] += R @ twist[:3] * DT
+        T[:3, :3] = Rotation.from_rotvec(R @ twist[3:] * DT).as_matrix() @ R
+        h.set_pose(T)
+    return status, T
+
+
+def test_the_pad_lifts_off_moves_over_and_lands_on_the_probe_along_its_normal():
+    tilt = math.radians(35)
+    normal = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    probe = np.array([0.06, 0.02, 0.03])
+    start = make_pose(DOWN, np.array([0.0, 0.0, 0.05]))
+    leaf = Reapproach()
+    h = LeafHarness(leaf, dt=DT, pose=start)
+    job = {"frontier_xy": np.array([0.04, 0.02]), "probe": (probe, normal), "top_z": 0.05,
+           "home": (np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, 1.0]))}
+    h.set("/scan/reapproach", job)
+
+    def on_plane(T):  # a patch of surface around the probe point; at the start the pad touches its home
+        d = T[:3, 3] - probe
+        height = float(d @ normal)
+        patch = np.linalg.norm(d - height * normal) < 0.03 and height <= 0.0
+        return patch or np.linalg.norm(T[:3, 3] - start[:3, 3]) < 1e-4
+
+    status, T = fly(h, on_plane)
+    assert status == Status.SUCCESS and job["result"] == "surface"
+    npt.assert_allclose(T[:3, 2], -normal, atol=math.radians(3))        # facing the surface
+    assert np.linalg.norm(T[:3, 3] - probe) < 0.005                     # on the probe point
+
+
+def test_without_a_pending_re_approach_it_succeeds_at_once():
+    h = LeafHarness(Reapproach(), dt=DT, pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
+    assert h.tick(make_features()) == Status.SUCCESS
