@@ -173,6 +173,19 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     return MissionResult(summary=summary, log=arrays, contact_data=contacts.data.copy(), surface=surface)
 
 
+def _force_report(tree, arrays: dict) -> dict:
+    """The report's ``force``: the force figures of the log, and the estimate and target of the
+    tree's ``adapt_force_target`` leaves (one: a dict; several: a list)."""
+    from tactile_bt.tree.behaviours.stiffness import AdaptForceTarget
+
+    force = force_figures(arrays)
+    root = getattr(tree, "root", tree)
+    adapters = [node.summary() for node in root.iterate() if isinstance(node, AdaptForceTarget)]
+    if adapters:
+        force["stiffness"] = adapters[0] if len(adapters) == 1 else adapters
+    return force
+
+
 def _joint_limit_runs(arrays: dict, log, scene) -> list:
     """The runs in which the arm held a joint on its limit (none without an arm)."""
     saturated = arrays.get("joint_saturated")
