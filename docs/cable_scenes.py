@@ -118,6 +118,21 @@ def place_base(scene_file: Path) -> None:
     scene_file.write_text(text)
 
 
+def judge(result) -> dict:
+    """The goals of a cable mission's result: ``path_error_m`` (the report's), ``followed`` (share
+    of the cable), ``p99_cop_x_px`` (after the approach, the last ``tail_s`` left out) and
+    ``missed``, the names of the goals of :data:`GOALS` it misses."""
+    log, p = result.log, result.summary.path_error_m
+    t, error_x = np.asarray(log["t"]), np.asarray(log["error_cop_x_px"], float)
+    window = np.isfinite(error_x) & (t <= t[-1] - GOALS["tail_s"])
+    p99 = float(np.percentile(np.abs(error_x[window]), 99)) if window.any() else math.nan
+    share = p["followed_m"] / p["cable_length_m"] if p["cable_length_m"] else 0.0
+    checks = {"path error mean": p["mean"] <= GOALS["mean_m"], "path error max": p["max"] <= GOALS["max_m"],
+              "followed": share >= GOALS["followed"], "COP x": p99 <= GOALS["p99_cop_x_px"]}
+    return {"path_error_m": p, "followed": share, "p99_cop_x_px": p99,
+            "missed": [name for name, ok in checks.items() if not ok]}
+
+
 def check(scene_file: Path, seed: int = 0, budget_factor: float = 2.0) -> dict:
     """Run the cable tree on ``scene_file`` with ``budget_factor`` times its budget and judge the
     run: a dict with the table row (``row``), ``verdict`` ("true success", "honest failure" or
@@ -125,14 +140,10 @@ def check(scene_file: Path, seed: int = 0, budget_factor: float = 2.0) -> dict:
     scene = load_scene(scene_file)
     budget = budget_factor * scene.duration_s
     result = run_mission(ROOT / "trees" / "cable_follow.yaml", scene, duration=budget, seed=seed)
-    r, log = result.summary, result.log
-    t, error_x = np.asarray(log["t"]), np.asarray(log["error_cop_x_px"], float)
-    window = np.isfinite(error_x) & (t <= t[-1] - GOALS["tail_s"])
-    p99 = float(np.percentile(np.abs(error_x[window]), 99)) if window.any() else math.nan
-    p = r.path_error_m
-    share = p["followed_m"] / p["cable_length_m"] if p["cable_length_m"] else 0.0
-    goals = (p["mean"] <= GOALS["mean_m"] and p["max"] <= GOALS["max_m"] and share >= GOALS["followed"]
-             and p99 <= GOALS["p99_cop_x_px"])
+    r = result.summary
+    figures = judge(result)
+    p, share, p99 = figures["path_error_m"], figures["followed"], figures["p99_cop_x_px"]
+    goals = not figures["missed"]
     if r.status == "success":
         verdict = "true success" if goals else "FALSE SUCCESS"
     else:

@@ -13,7 +13,7 @@ import numpy as np
 import py_trees
 
 from tactile_bt import run_mission
-from tactile_bt.tree.behaviours import (AlignEdge, Approach, Backtrack, CableEnd, Centre, ContactLost, ForceHold,
+from tactile_bt.tree.behaviours import (AdaptForceTarget, AlignEdge, Approach, Backtrack, CableEnd, Centre, ContactLost, ForceHold,
                                        GuidedSlide, MissionTimeout, RecordContacts, Retry, TactileServo)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,14 +39,15 @@ def build_tree() -> py_trees.trees.BehaviourTree:
     settle = py_trees.composites.Parallel(
         "settle",
         policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
-        children=[ForceHold(target_pa=2000.0), level("level_while_settling"), centred_and_aligned,
+        children=[ForceHold(target_pa=2000.0, target_key="/force/target_pa"), level("level_while_settling"),
+                  centred_and_aligned,
                   ContactLost(grace_s=0.3)],
     )
     follow = py_trees.composites.Parallel(
         "follow",
         policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
         children=[
-            ForceHold(target_pa=2000.0),  # P row vz
+            ForceHold(target_pa=2000.0, target_key="/force/target_pa"),  # P row vz, at what the cable carries
             Centre(target_m=(0.0, 0.0), ki=0.0),  # P rows vx, vy
             level("level_along_cable"),
             AlignEdge(target_rad=np.pi / 2),  # P row wz: the cable along the sensor y axis
@@ -59,16 +60,20 @@ def build_tree() -> py_trees.trees.BehaviourTree:
     )
     # After a loss, back along the pad's recorded path (at once the first time), settle, follow.
     back_up = py_trees.composites.Parallel("back_up", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
-                                           children=[ForceHold(target_pa=2000.0), Backtrack(distance_m=0.03)])
+                                           children=[ForceHold(target_pa=2000.0, target_key="/force/target_pa"),
+                                                     Backtrack(distance_m=0.03)])
     attempt = py_trees.composites.Sequence("attempt", memory=True, children=[
         back_up,
         MissionTimeout(settle, name="settle_on_cable", duration_s=3.0, succeed=True),
         follow,
     ])
-    root = py_trees.composites.Sequence("cable_follow", memory=True, children=[
+    task = py_trees.composites.Sequence("follow_cable", memory=True, children=[
         approach,
         Retry(attempt, name="follow_or_recover", num_failures=3),
     ])
+    # Beside the whole task: the contact's stiffness, and the pressure target the cable carries.
+    root = py_trees.composites.Parallel("cable_follow", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                        children=[AdaptForceTarget(target_pa=2000.0), task])
     return py_trees.trees.BehaviourTree(root)
 
 if __name__ == "__main__":

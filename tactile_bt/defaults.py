@@ -61,6 +61,48 @@ ALIGN_KI: float = 8.0
 ALIGN_KD: float = 0.0
 ALIGN_LIMIT_RPS: float = 1.0
 
+# --- Forces the object can carry (tactile_bt.tree.behaviours.stiffness) -----------------------
+#: Lowest pressure target a soft object may bring the tree's target down to (Pa): below it the
+#: contact region falls apart into tactels just above the binarisation threshold (0.008 N on a
+#: 25 mm² tactel: 320 Pa), and the pressure, force over the region's area, cannot go below that.
+FORCE_TARGET_FLOOR_PA: float = 0.25 * TARGET_PRESSURE_PA
+#: Share of what an object can give before the pad reaches something hard that the pressure
+#: target may use.
+STIFFNESS_GIVE_SHARE: float = 0.5
+#: What an object is taken to give when the set-up's table below is farther (m).
+STIFFNESS_MAX_INDENTATION_M: float = 0.005
+#: Indentation of a contact before its stiffness estimate counts (m).
+STIFFNESS_MIN_TRAVEL_M: float = 0.0002
+#: Rise of the pressure of a contact before its stiffness estimate counts (Pa): several times the
+#: noise of the unsmoothed pressure of a small contact.
+STIFFNESS_MIN_RISE_PA: float = 0.05 * TARGET_PRESSURE_PA
+
+# --- Chatter of the servo leaves (tactile_bt.control.chatter.ChatterDamper) ---------------------
+#: A sign change of a servo output between two cycles counts as chatter when it jumps by at
+#: least this share of the output limit ...
+SERVO_CHATTER_JUMP_SHARE: float = 0.5
+#: ... and comes within this time of the previous one (s) ...
+SERVO_CHATTER_GAP_S: float = 0.05
+#: ... and raises the chatter level (0-1) by this much, ...
+SERVO_CHATTER_STEP: float = 0.25
+#: ... which falls back from 1 to 0 in this time without chatter (s).
+SERVO_CHATTER_RECOVER_S: float = 1.0
+#: Gain of a servo output at full chatter (its share of the PID's output).
+SERVO_CHATTER_GAIN_MIN: float = 0.3
+#: Time constant of the low-pass on a servo output at full chatter (s).
+SERVO_CHATTER_SMOOTH_S: float = 0.1
+
+# --- Contacts recorded only when settled (tactile_bt.tree.behaviours.contact_points) ----------
+#: record_contacts records while the smoothed pressure is at most this many times the target ...
+RECORD_MAX_PRESSURE_RATIO: float = 2.0
+#: ... and at least this many times it ...
+RECORD_MIN_PRESSURE_RATIO: float = 0.25
+#: ... while contact outside the largest region carries at most this share of its force ...
+RECORD_OTHER_REGION_SHARE: float = 0.2
+#: ... and while the pad moves into the object along its normal at most this fast (m/s): the
+#: approach's speed. The force servo's own corrections on a curved surface reach a few mm/s.
+RECORD_MAX_APPROACH_MPS: float = 0.01
+
 #: Approach: speed along the pad normal (m/s) and the pressure that ends it (Pa).
 APPROACH_SPEED_MPS: float = 0.01
 APPROACH_PRESSURE_PA: float = 0.4 * TARGET_PRESSURE_PA
@@ -88,6 +130,14 @@ METRIC_BANDS = {
 METRIC_DWELL_S: float = 0.5
 #: Length of the evaluation window after a controller starts (s): the paper's "until 20 s".
 METRIC_WINDOW_S: float = 20.0
+#: Force figures of a mission (:func:`tactile_bt.mission.metrics.force_figures`): the smoothed
+#: pressure may exceed this multiple of the held target ...
+FORCE_FIGURE_PRESSURE_FACTOR: float = 2.0
+#: ... for at most this long at a time (s).
+FORCE_FIGURE_MAX_OVER_S: float = 0.1
+#: A twist row chatters when it changes sign between consecutive cycles with a jump of at least
+#: this share of its limit (``TWIST_LINEAR_LIMIT_MPS`` or ``TWIST_ANGULAR_LIMIT_RPS``).
+CHATTER_FIGURE_JUMP_SHARE: float = 0.2
 
 # --- Supervisor (between the controller and the mount; no tree switches it off) --------------
 #: Default pressure limit as a multiple of the highest pressure target of the tree's leaves.
@@ -102,8 +152,10 @@ SUPERVISOR_GRACE_S: float = 0.5
 SUPERVISOR_CLEAR_S: float = 0.2
 #: Longest grace and clear time a scene or run may declare (s).
 SUPERVISOR_MAX_WAIT_S: float = 2.0
-#: Speed of the retreat along the pad normal, away from the object (m/s).
-SUPERVISOR_RETREAT_SPEED_MPS: float = 0.02
+#: Speed of the retreat along the pad normal, away from the object (m/s): as fast as the force
+#: hold backs off. On the compliant arm the pad gives back only as its joints unwind, so a
+#: slower retreat leaves a small contact (a corner) above the limit for longer.
+SUPERVISOR_RETREAT_SPEED_MPS: float = FORCE_LIMIT_MPS
 #: Live missions: the longest gap between sensor frames (s; 10 frames at 250 Hz) ...
 SUPERVISOR_SENSOR_SILENCE_S: float = 0.04
 #: ... and the oldest robot pose (s) the supervisor accepts before it stops the mission.

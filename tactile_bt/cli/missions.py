@@ -39,12 +39,7 @@ def cmd_run(args) -> int:
     r = result.summary
     print(f"{r.status}{': ' + r.reason if r.reason else ''} after {r.sim_time_s:.2f} s "
           f"({r.ticks} ticks, {r.real_time_factor:.1f}x real time)")
-    print("\n".join(r.summary_lines()))
-    for warning in r.warnings:
-        print(f"warning: {warning}", file=sys.stderr)
-    print(f"  outputs in {args.out}")
-    report_watched(args)
-    return 0 if r.ok else 1
+    return _outcome(r, args)
 
 
 def cmd_live(args) -> int:
@@ -69,12 +64,7 @@ def cmd_live(args) -> int:
         progress.close()
     r = result.summary
     print(f"{r.status}{': ' + r.reason if r.reason else ''} after {r.sim_time_s:.2f} s ({r.ticks} cycles)")
-    print("\n".join(r.summary_lines()))
-    for warning in r.warnings:
-        print(f"warning: {warning}", file=sys.stderr)
-    print(f"  outputs in {args.out}")
-    report_watched(args)
-    return 0 if r.ok else 1
+    return _outcome(r, args)
 
 
 def cmd_twin(args) -> int:
@@ -114,3 +104,13 @@ def cmd_replay(args) -> int:
     report_watched(args)
     return 0 if r.ok else 1
 
+
+def _outcome(r, args) -> int:
+    """Print a finished mission's summary lines, warnings and outputs (after its one-line status),
+    and what the watchers wrote; the command's exit status."""
+    print("\n".join(r.summary_lines()))
+    for warning in r.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    print(f"  outputs in {args.out}")
+    report_watched(args)
+    return 0 if r.ok else 1

@@ -97,6 +97,11 @@ class MissionReport:
         The frontier a scan left, in m by reason: ``explained`` (the table, the tilt limit) and
         ``unexplained`` (an edge, a stall, ..., "" for frontier never tried)
         (:meth:`tactile_bt.tree.behaviours.frontier.FrontierGuidance.frontier_left`).
+    force : dict, optional
+        How hard the mission pressed after its approach
+        (:func:`tactile_bt.mission.metrics.force_figures`) and, under ``stiffness``, the contact
+        stiffness an ``adapt_force_target`` leaf estimated and the target it adapted
+        (:meth:`tactile_bt.tree.behaviours.stiffness.AdaptForceTarget.summary`).
     realtime : dict, optional
         A live mission's real-time figures: latency (frame arrival to twist sent), cycle period,
         jitter and work per cycle as percentiles in ms, cycles over budget
@@ -123,11 +128,12 @@ class MissionReport:
     supervisor: dict | None = None
     realtime: dict | None = None
     frontier: dict | None = None
+    force: dict | None = None
 
     #: Key order of report.json.
     ORDER = ("tree", "recording", "scene", "seed", "status", "reason", "warnings", "rate_hz", "sim_time_s",
              "wall_time_s", "real_time_factor", "ticks", "metrics", "contacts", "path_error_m",
-             "path_error_cop_m", "reconstruction", "frontier", "supervisor", "realtime")
+             "path_error_cop_m", "reconstruction", "frontier", "supervisor", "force", "realtime")
 
     @property
     def ok(self) -> bool:
@@ -140,7 +146,7 @@ class MissionReport:
         for name in self.ORDER:
             value = getattr(self, name)
             if value is None and name in ("rate_hz", "recording", "path_error_m", "path_error_cop_m",
-                                          "reconstruction", "frontier", "supervisor", "realtime"):
+                                          "reconstruction", "frontier", "supervisor", "force", "realtime"):
                 continue
             if name == "metrics":
                 value = {k: m.to_dict() for k, m in value.items()}
@@ -201,6 +207,15 @@ class MissionReport:
             lines.append(f"  supervisor       {n} intervention{'s' if n > 1 else ''}, "
                          f"{sup['retreat_time_s']:.2f} s retreating (longest {sup['longest_intervention_s']:.2f} s), "
                          f"peak {sup['peak_pressure_pa']:.0f} Pa, {sup['peak_force_n']:.1f} N")
+        force = self.force
+        stiffness = (force or {}).get("stiffness") or {}
+        if force and (not force.get("ok", True)
+                      or stiffness.get("lowest_target_pa", math.inf) < stiffness.get("tree_target_pa", 0.0)):
+            k = stiffness.get("stiffness_pa_per_m")
+            adapted = (f"target {stiffness['target_pa']:.0f} of {stiffness['tree_target_pa']:.0f} Pa "
+                       f"(stiffness {k:.3g} Pa/m), " if stiffness and k is not None else "")
+            lines.append(f"  force            {adapted}longest above 2x target {force['longest_over_s']:.2f} s, "
+                         f"peak {force['peak_force_n']:.1f} N")
         rt = self.realtime
         if rt:
             lines.append(f"  real time        latency p50 {rt['latency_ms']['p50']:.2f} ms, p99 {rt['latency_ms']['p99']:.2f} ms; "

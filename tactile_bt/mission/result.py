@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from tactile_bt.mission.joints import held_at_end, saturation_runs, saturation_warnings
-from tactile_bt.mission.metrics import controlled_feature_metrics, path_error
+from tactile_bt.mission.metrics import controlled_feature_metrics, force_figures, path_error
 from tactile_bt.mission.report import FeatureMetrics, MissionReport
 
 __all__ = ["MissionResult", "finish_mission"]
@@ -146,6 +146,7 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         recording=None if recording is None else str(recording),
         supervisor=supervision,
         frontier=_frontier_left(tree),
+        force=_force_report(tree, arrays),
     )
     cable = getattr(scene, "cable", None)
     if cable is not None:
@@ -170,6 +171,19 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         figures.update(contact_continuity(arrays["t"], arrays["in_contact"]))
         summary.reconstruction = figures
     return MissionResult(summary=summary, log=arrays, contact_data=contacts.data.copy(), surface=surface)
+
+
+def _force_report(tree, arrays: dict) -> dict:
+    """The report's ``force``: the force figures of the log, and the estimate and target of the
+    tree's ``adapt_force_target`` leaves (one: a dict; several: a list)."""
+    from tactile_bt.tree.behaviours.stiffness import AdaptForceTarget
+
+    force = force_figures(arrays)
+    root = getattr(tree, "root", tree)
+    adapters = [node.summary() for node in root.iterate() if isinstance(node, AdaptForceTarget)]
+    if adapters:
+        force["stiffness"] = adapters[0] if len(adapters) == 1 else adapters
+    return force
 
 
 def _joint_limit_runs(arrays: dict, log, scene) -> list:

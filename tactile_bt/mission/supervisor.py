@@ -9,7 +9,8 @@ the mount does, and enforces what no tree may switch off:
 
 - **force and pressure limits**: while the smoothed pressure or force is above its limit, the
   twist is replaced by a retreat along the pad normal (``-z`` of the sensor frame, whose ``z``
-  points towards the object) and the tree is told through the blackboard
+  points towards the object; at ``retreat_speed_mps``, or as fast as the tree itself backs off
+  when that is faster) and the tree is told through the blackboard
   (:mod:`tactile_bt.tree.behaviours.supervision`); if a limit is still exceeded ``grace_s`` after
   the intervention began, the mission ends with ``failure`` naming the limit. An intervention is
   over once every value has stayed within its limit for ``clear_s``.
@@ -244,7 +245,8 @@ class Supervisor:
         -------
         (6,) array
             ``twist_s`` unchanged within every limit; the retreat ``[0, 0, -v, 0, 0, 0]`` while a
-            force or pressure limit is exceeded; zero once the supervisor has ended the mission.
+            force or pressure limit is exceeded (``v`` the retreat speed, or the tree's own
+            ``-vz`` when larger); zero once the supervisor has ended the mission.
         """
         if self._retreated is not None:  # the retreat sent last cycle lasted until now
             self._retreated.retreat_s += t - self._t_prev
@@ -270,7 +272,7 @@ class Supervisor:
         else:
             self._within(t)
             return self._send(twist_s)
-        return self._send(self._exceeded(limit, value, t))
+        return self._send(self._exceeded(limit, value, t, float(twist_s[2])))
 
     def stop(self) -> np.ndarray:
         """The last command of a mission, on every way out: a zero twist."""
@@ -307,8 +309,10 @@ class Supervisor:
             self._current = None
             self._publish(False, "")
 
-    def _exceeded(self, limit: str, value: float, t: float) -> np.ndarray:
-        """A limit exceeded: retreat, or end the mission once the grace time is over."""
+    def _exceeded(self, limit: str, value: float, t: float, tree_vz: float = 0.0) -> np.ndarray:
+        """A limit exceeded: retreat, or end the mission once the grace time is over. A tree
+        already backing off along the normal faster than the retreat keeps its speed (``tree_vz``,
+        m/s): the supervisor never slows a retreat down."""
         unit = _UNITS[limit]
         bound = getattr(self.limits, f"{limit}_limit_{unit.lower()}")
         run = self._current
@@ -325,7 +329,10 @@ class Supervisor:
                       f"{t - run.start_s:.2f} s of retreat (since {run.start_s:.2f} s)")
             return np.zeros(6)
         self._retreated = run
-        return self._retreat.copy()
+        retreat = self._retreat.copy()
+        if tree_vz < retreat[2]:
+            retreat[2] = tree_vz
+        return retreat
 
     def _end(self, why: str) -> None:
         self.outcome = ("failure", f"supervisor: {why}")

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from tactile_bt.control.chatter import ChatterDamper
 from tactile_bt.control.servo import (
     PID,
     PROJECTIONS,
@@ -158,3 +159,31 @@ def test_servo_command_sums_parts_and_limits():
 def test_limit_twist_keeps_direction():
     V = np.array([3.0, 4.0, 0.0, 0.0, 0.0, 0.0])
     assert_allclose(limit_twist(V, 1.0, 1.0)[:2], [0.6, 0.8])
+
+
+# ------------------------------------------------------------------ chatter
+
+
+def _damper(limit=1.0):
+    return ChatterDamper([limit], jump_share=0.5, step=0.25, recover_s=1.0, gain_min=0.3, smooth_s=0.1, gap_s=0.05)
+
+
+def test_a_servo_output_that_does_not_chatter_passes_unchanged():
+    damper = _damper()
+    u = [0.8 * np.sin(0.05 * k) for k in range(500)]  # reverses, but smoothly
+    assert [damper.apply([v], 0.004)[0] for v in u] == u
+    damper = _damper()
+    damper.apply([1.0], 0.004)
+    assert damper.apply([-1.0], 0.004) == [-1.0]  # one reversal alone is no chatter
+    assert damper.counted == 0
+
+
+def test_a_saturated_output_switching_sign_every_cycle_is_damped_and_recovers():
+    damper = _damper()
+    out = [damper.apply([1.0 if k % 2 else -1.0], 0.004)[0] for k in range(250)]
+    tail = np.array(out[-50:])
+    assert np.max(np.abs(tail)) < 0.1  # from ±1 to a small ripple
+    assert np.max(np.abs(np.diff(tail))) < 0.1
+    assert damper.level[0] == 1.0
+    calm = [damper.apply([0.5], 0.004)[0] for _ in range(500)]  # 2 s without chatter
+    assert calm[-1] == 0.5 and damper.level[0] == 0.0

@@ -219,3 +219,32 @@ def test_the_summary_describes_the_scan_region_in_words(region, words):
     line = _report(reconstruction=rec).summary_lines()[-1]
     assert line.endswith(f"coverage 1.000 {words}"), line
     assert "{" not in line
+
+
+def test_force_figures_measure_the_pressure_against_the_held_target_after_the_approach():
+    from tactile_bt.mission.metrics import force_figures
+
+    dt = 0.004
+    t = np.arange(0, 4.0, dt)
+    pressure = np.full(len(t), 600.0)
+    error = pressure - 500.0  # logged as measured - target: an adapted target of 500 Pa
+    error[t < 1.0] = np.nan  # the approach: no target held
+    pressure[t < 1.0] = 5000.0  # whatever the approach pressed does not count
+    pressure[(t >= 2.0) & (t < 2.2)] = 1200.0  # 0.2 s above twice the target
+    error = np.where(np.isnan(error), np.nan, pressure - 500.0)
+    force = np.full(len(t), 2.0)
+    force[t < 1.0] = 30.0
+    twist = np.zeros((len(t), 6))
+    twist[(t >= 3.0), 3] = np.where(np.arange(np.sum(t >= 3.0)) % 2, 1.0, -1.0)  # ωx chatters for 1 s
+    log = {"t": t, "pressure_pa": pressure, "error_pressure_pa": error, "force_n": force, "twist_s": twist}
+    f = force_figures(log)
+    assert f["target_min_pa"] == pytest.approx(500.0) and f["target_max_pa"] == pytest.approx(500.0)
+    assert f["longest_over_s"] == pytest.approx(0.2, abs=1.5 * dt)
+    assert f["over_share"] == pytest.approx(0.2 / 3.0, abs=0.01)
+    assert f["peak_force_n"] == 2.0 and f["peak_ratio"] == pytest.approx(2.4)
+    assert not f["ok"]  # 0.2 s above twice the target: more than 0.1 s
+    assert f["chatter_per_s"][3] == pytest.approx(250 / 3.0, rel=0.02)  # 250 sign changes in 3 s
+    assert f["chatter_per_s"][4] == 0.0
+    pressure[(t >= 2.0) & (t < 2.2)] = 600.0
+    log["error_pressure_pa"] = np.where(np.isnan(error), np.nan, pressure - 500.0)
+    assert force_figures(log)["ok"]

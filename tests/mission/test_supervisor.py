@@ -298,3 +298,54 @@ def test_the_absolute_force_cap_holds_without_any_declared_limit(tmp_path):
     assert r["status"] == "failure" and r["reason"].startswith("supervisor: force limit: "), r["reason"]
     assert "above 20 N" in r["reason"]
     assert np.max(result.log["force_n"]) < 1.1 * defaults.SUPERVISOR_FORCE_CAP_N
+
+
+def test_the_retreat_never_slows_a_tree_that_already_backs_off_faster():
+    sup = Supervisor(SupervisorLimits(pressure_limit_pa=4000.0, retreat_speed_mps=0.02))
+    backing_off = np.array([0.01, 0.0, -0.05, 0.2, 0.0, 0.0])
+    twist = sup.check(press(4500.0), PAD_DOWN, backing_off, 0.0)
+    np.testing.assert_allclose(twist, [0.0, 0.0, -0.05, 0.0, 0.0, 0.0])  # its speed, nothing else
+    twist = sup.check(press(4500.0), PAD_DOWN, TREE_TWIST, DT)  # pressing on: the retreat
+    np.testing.assert_allclose(twist, [0.0, 0.0, -0.02, 0.0, 0.0, 0.0])
+
+
+PUSH_THEN_HOLD = """
+name: push_then_hold
+root:
+  sequence:
+    name: push_then_hold
+    children:
+      - approach: {pressure_pa: 800, timeout_s: 5}
+      - mission_timeout:                 # a blind push into the pen: 20 mm in 0.5 s
+          duration_s: 0.5
+          succeed: true
+          child:
+            guided_slide: {name: push, twist: [0, 0, 0.04, 0, 0, 0]}
+      - mission_timeout:
+          duration_s: 1.5
+          succeed: true
+          child:
+            force_hold: {target_pa: 2000}
+"""
+
+
+def test_a_blind_push_into_a_rigid_object_is_pulled_back_and_the_mission_goes_on(tmp_path):
+    """No leaf of this tree listens to the supervisor: it retreats for the tree, hands the twist
+    back once the pressure has stayed within the limit, and the mission ends as the tree does."""
+    tree = tmp_path / "push.yaml"
+    tree.write_text(PUSH_THEN_HOLD)
+    result = run_mission(tree, ROOT / "sim" / "pen.yaml", duration=4.0)
+    r = result.report
+    assert r["status"] == "success", r["reason"]
+    sup = r["supervisor"]
+    assert sup["interventions"] >= 1 and sup["ended_mission"] == ""
+    assert sup["runs"][0]["limit"] == "pressure" and sup["retreat_time_s"] > 0.0
+    log = result.log
+    start = sup["runs"][0]["start_s"]
+    assert np.all(log["twist_s"][(log["t"] > start) & (log["t"] < start + 0.02), 2] < 0)  # retreating
+    # ... within twice the limit at worst, and then the force hold holds its target
+    assert np.max(log["pressure_pa"]) < 2 * sup["limits"]["pressure_limit_pa"]
+    late = log["pressure_pa"][log["t"] > r["sim_time_s"] - 0.5]
+    assert abs(np.mean(late) - 2000.0) < 200.0
+    force = r["force"]
+    assert force["peak_force_n"] <= defaults.SUPERVISOR_FORCE_CAP_N

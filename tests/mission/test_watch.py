@@ -53,15 +53,15 @@ def test_every_run_logs_each_nodes_status_per_tick_in_tree_order(watched):
         depth = log["node_depth"]
     assert status.dtype == np.uint8 and status.shape == (len(t), len(names))
     assert names[0] == "cable_follow" and depth[0] == 0
-    assert names.index("cable_follow/approach") < names.index("cable_follow/follow_or_recover/attempt/follow/guided_slide")
+    assert names.index("cable_follow/follow_cable/approach") < names.index("cable_follow/follow_cable/follow_or_recover/attempt/follow/guided_slide")
     assert all(depth[i] == names[i].count("/") for i in range(len(names)))
-    approach = status[:, names.index("cable_follow/approach")]
+    approach = status[:, names.index("cable_follow/follow_cable/approach")]
     # The approach runs from the first tick until it touches, then has succeeded for good.
     assert approach[0] == STATUS_CODES[Status.RUNNING]
     done = np.flatnonzero(approach == STATUS_CODES[Status.SUCCESS])
     assert 0 < done[0] < len(t) and np.all(approach[done[0]:] == STATUS_CODES[Status.SUCCESS])
     # The guided slide only starts once the approach and the settling are over.
-    slide = status[:, names.index("cable_follow/follow_or_recover/attempt/follow/guided_slide")]
+    slide = status[:, names.index("cable_follow/follow_cable/follow_or_recover/attempt/follow/guided_slide")]
     assert np.all(slide[:done[0] + 1] == STATUS_CODES[Status.INVALID])
     assert status.max() < len(STATUS_NAMES)
 

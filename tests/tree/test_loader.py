@@ -96,13 +96,14 @@ def test_cable_follow_loads_with_the_expected_nodes():
 
 
 def test_the_project_cable_tree_keeps_its_shape():
-    """trees/cable_follow.yaml: approach, then a bounded number of attempts, each backing up after
-    a loss, settling on the cable and a parallel that slides, records and ends at the end of the
-    cable (or fails when the line is lost)."""
-    from tactile_bt.tree.behaviours import Backtrack, CableEnd, MissionTimeout, Retry
+    """trees/cable_follow.yaml: beside the stiffness estimate, approach, then a bounded number of
+    attempts, each backing up after a loss, settling on the cable and a parallel that slides,
+    records and ends at the end of the cable (or fails when the line is lost)."""
+    from tactile_bt.tree.behaviours import AdaptForceTarget, Backtrack, CableEnd, MissionTimeout, Retry
 
-    root = load_tree(CABLE_TREE).root
-    approach, attempts = root.children
+    adapt, task = load_tree(CABLE_TREE).root.children
+    assert isinstance(adapt, AdaptForceTarget)
+    approach, attempts = task.children
     assert isinstance(approach, Approach) and isinstance(attempts, Retry) and attempts.num_failures >= 2
     back_up, settle, follow = attempts.decorated.children
     assert any(isinstance(c, Backtrack) for c in back_up.children)
@@ -111,6 +112,8 @@ def test_the_project_cable_tree_keeps_its_shape():
     assert {ForceHold, Centre, AlignEdge, GuidedSlide, RecordContacts, CableEnd} <= kinds
     recorder = next(c for c in follow.children if isinstance(c, RecordContacts))
     assert recorder.only_when == "/cable/on_line"
+    hold = next(c for c in follow.children if isinstance(c, ForceHold))
+    assert hold.target_key == adapt.key == recorder.target_key
 
 
 def python_cable_follow():

@@ -120,7 +120,7 @@ def test_a_param_can_be_a_blackboard_reference():
         ("hodl.target_pa=1", "--param hodl.target_pa: no node named 'hodl' (did you mean 'hold'?); "
                              "nodes: touch, again, hold, centre, force_limit, contact_lost"),
         ("hold.target_pas=1", "--param hold.target_pas: force_hold 'hold' has no parameter 'target_pas' "
-                              "(did you mean 'target_pa'?); parameters: name, target_pa, kp, ki, kd"),
+                              "(did you mean 'target_pa'?); parameters: name, target_pa, target_key, all_regions"),
         ("again.child=1", "--param again.child: retry 'again' has no parameter 'child'"),
         ("follow.policy=success_on_all", "--param follow.policy: 'follow' is a parallel (a composite)"),
         ("hold=1", "--param hold: expected NODE.PARAM=VALUE"),

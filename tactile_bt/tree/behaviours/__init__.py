@@ -26,6 +26,7 @@ from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 from tactile_bt.tree.behaviours.supervision import SupervisorRetreat
+from tactile_bt.tree.behaviours.stiffness import AdaptForceTarget
 
 #: YAML node type → leaf class.
 LEAVES = {
@@ -58,6 +59,7 @@ LEAVES = {
     "contact_lost": ContactLost,
     "force_limit": ForceLimit,
     "supervisor_retreat": SupervisorRetreat,
+    "adapt_force_target": AdaptForceTarget,
 }
 #: YAML node type → decorator class (first argument: the child).
 DECORATORS = {
@@ -102,6 +104,7 @@ __all__ = [
     "SquareToSlope",
     "ContactLost",
     "SupervisorRetreat",
+    "AdaptForceTarget",
     "ForceLimit",
     "MissionTimeout",
     "Retry",

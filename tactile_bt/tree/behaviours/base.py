@@ -21,7 +21,8 @@ from py_trees.common import Access, Status
 from tactile_bt import defaults
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.declaration import REQUIRED, Parameter, Parameterised
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, resolve_references
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, resolve_references
+from tactile_bt.control.chatter import ChatterDamper
 from tactile_bt.control.servo import PID, feature_error, feature_errors_of, inverse_task_jacobian, per_component
 from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, KEYS, NAMESPACE, POSE, TIME, current_pad, read
 from tactile_bt.tree.ticking import STATUSES, checked, debug_logging
@@ -196,6 +197,12 @@ class ServoLeaf(TactileBehaviour):
 
     The gains, ``output_limit`` and ``band`` are declared here without a default or unit; each
     subclass redeclares them with its own (``kp = ServoLeaf.kp.replace(default=..., unit=...)``).
+
+    Every servo leaf damps chatter the same way: an output that switches sign with a large jump
+    tick after tick (a flat pad over a ridge or bridging a concave surface) has its gain
+    reduced and is low-passed until it stops (:class:`~tactile_bt.control.chatter.ChatterDamper`,
+    the ``chatter_*`` parameters, defaults ``defaults.SERVO_CHATTER_*``); an output that does
+    not chatter passes unchanged.
     """
 
     components: tuple[int, ...] = ()
@@ -212,6 +219,16 @@ class ServoLeaf(TactileBehaviour):
     band = Parameter(math.inf, type=float, bound=POSITIVE, unit=None,
                      doc="Convergence band per component, in the component's error unit (m, Pa or rad).")
     dwell_s = Parameter(0.5, bound=NON_NEGATIVE, doc="Time the errors must stay inside ``band`` (s, mission clock).")
+    chatter_jump_share = Parameter(defaults.SERVO_CHATTER_JUMP_SHARE, bound=between(0, 2, low_open=True), unit=None,
+                                   doc="A sign change of an output counts as chatter when it jumps by at least this "
+                                       "share of ``output_limit`` within "
+                                       f"{defaults.SERVO_CHATTER_GAP_S * 1e3:g} ms of the previous one.")
+    chatter_gain_min = Parameter(defaults.SERVO_CHATTER_GAIN_MIN, bound=between(0, 1), unit=None,
+                                 doc="Gain of an output at full chatter (1: no damping).")
+    chatter_smooth_s = Parameter(defaults.SERVO_CHATTER_SMOOTH_S, bound=NON_NEGATIVE,
+                                 doc="Time constant of the low-pass on an output at full chatter (s).")
+    chatter_recover_s = Parameter(defaults.SERVO_CHATTER_RECOVER_S, bound=POSITIVE,
+                                  doc="Time in which the damping wears off without chatter (s).")
 
     _inputs = None  # features and targets of the last tick, for last_error
     _inside_since: float | None = None
@@ -223,6 +240,11 @@ class ServoLeaf(TactileBehaviour):
         n = len(self.components)
         if changed & {"kp", "ki", "kd", "output_limit"}:
             self.pid = self._make_pid(self.kp, self.ki, self.kd, self.output_limit)
+        if changed & {"kp", "ki", "kd", "output_limit", "chatter_jump_share", "chatter_gain_min", "chatter_smooth_s",
+                      "chatter_recover_s"}:
+            self.damper = ChatterDamper(self.pid.output_limit, self.chatter_jump_share, defaults.SERVO_CHATTER_STEP,
+                                        self.chatter_recover_s, self.chatter_gain_min, self.chatter_smooth_s,
+                                        defaults.SERVO_CHATTER_GAP_S)
         if "roll_radius" in changed or not hasattr(self, "_map"):
             self._build_map(getattr(self, "roll_radius", defaults.ROLL_RADIUS_M))
         if "band" in changed:
@@ -288,6 +310,7 @@ class ServoLeaf(TactileBehaviour):
     def initialise(self) -> None:
         self._set_pad(self.pad)
         self.pid.reset()
+        self.damper.reset()
         self._inside_since = None
         self._last_twist = _ZERO_TWIST
 
@@ -310,7 +333,7 @@ class ServoLeaf(TactileBehaviour):
             self._inside_since = None
             self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
             return _RUNNING
-        u = self.pid.update(error, self.dt)  # NaN for the idle components: no command there
+        u = self.damper.apply(self.pid.update(error, self.dt), self.dt)  # idle components: u = 0
         twist = [0.0] * 6
         for j, r, coefficient in self._terms:
             twist[r] += coefficient * u[j]

@@ -3,6 +3,21 @@ centre of pressure (or the whole contact imprint) is carried to the base frame t
 forward kinematics ``T_gs`` into the mission's contact cloud
 (:class:`~tactile_bt.contacts.cloud.ContactCloud`, on the blackboard).
 
+Only a settled contact is a measurement: the pad surface lies inside the object by what the
+pressure compresses, so a contact pressed far above its target, a pad that bridges a hollow
+(two regions at its borders, each pressed in deep) or a pad still moving into the object
+records points that lie inside it. The leaf records a cycle only while the smoothed pressure
+lies between ``min_pressure_ratio`` and ``max_pressure_ratio`` times the pressure target (the
+adapted one of ``target_key`` when written, :mod:`tactile_bt.tree.behaviours.stiffness`) and the
+pad moves into the object at most at ``max_approach_mps``. A contact point (``cop``, ``local``)
+is recorded only while the contact is one region (any other region carries at most
+``other_region_share`` of its force): the centre of pressure of a pad bridging a hollow lies
+between its two contacts. An imprint (``point: region``) is the largest region's alone, so a
+second region does not stop it (a flat pad bridging a hollow touches at its borders only, and
+would otherwise record nothing there). Within a settled contact every point lies inside the
+object by what its own pressure compresses the foam and the object: the centre of a curved
+contact is pressed more than the region's mean, and is recorded all the same.
+
 Layer: tree.
 """
 
@@ -15,15 +30,17 @@ from typing import Literal
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, POSE, TIME, read, read_or
+from tactile_bt.tree.behaviours.stiffness import FORCE_TARGET_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.declaration import Parameter
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, normalise_key
 from tactile_bt.perception.features import local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["RecordContacts", "imprint_points"]
+__all__ = ["RecordContacts", "imprint_points", "other_contact"]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -63,6 +80,17 @@ def _dilated(mask: np.ndarray) -> np.ndarray:
     region[:, 1:] |= mask[:, :-1]
     region[:, :-1] |= mask[:, 1:]
     return region
+
+
+def other_contact(features, threshold_n: float = defaults.CONTACT_THRESHOLD_N) -> tuple[float, int]:
+    """Force (N) and tactels of the contact outside the largest region and its fringe: a second
+    contact, such as the other border of a flat pad bridging a hollow. ``(0.0, 0)`` without an
+    image or contact."""
+    image = features.image
+    if image is None or not features.in_contact:
+        return 0.0, 0
+    outside = image[(image > threshold_n) & ~_dilated(features.mask)]
+    return (float(outside.sum()), int(outside.size)) if outside.size else (0.0, 0)
 
 
 def _percentile(values: np.ndarray, q: float) -> float:
@@ -162,6 +190,23 @@ class RecordContacts(TactileBehaviour):
     table_key = Parameter(TABLE_Z_KEY, fixed=True,
                           doc="Blackboard key of the table's height (m, world z; absent or NaN: no table), read when "
                               "the leaf starts (:mod:`tactile_bt.tree.behaviours.table`).")
+    max_pressure_ratio = Parameter(defaults.RECORD_MAX_PRESSURE_RATIO, bound=POSITIVE_OR_INF, unit=None,
+                                   doc="Record only while the smoothed pressure is at most this many times the "
+                                       "target (inf: no limit).")
+    min_pressure_ratio = Parameter(defaults.RECORD_MIN_PRESSURE_RATIO, bound=NON_NEGATIVE, unit=None,
+                                   doc="Record only while the smoothed pressure is at least this many times the "
+                                       "target (0: from the first touch).")
+    other_region_share = Parameter(defaults.RECORD_OTHER_REGION_SHARE, bound=POSITIVE_OR_INF, unit=None,
+                                   doc="``point: cop`` or ``local``: record only while the tactels in contact outside "
+                                       "the largest region (and its fringe) carry at most this share of its force "
+                                       "(inf: never check).")
+    max_approach_mps = Parameter(defaults.RECORD_MAX_APPROACH_MPS, bound=POSITIVE_OR_INF,
+                                 doc="Record only while the pad moves into the object along its normal at most this "
+                                     "fast (m/s, averaged over the features' smoothing window; inf: never check).")
+    nominal_pa = Parameter(defaults.TARGET_PRESSURE_PA, bound=POSITIVE,
+                           doc="The pressure target (Pa) while ``target_key`` holds none.")
+    target_key = Parameter(FORCE_TARGET_KEY, fixed=True,
+                           doc="Blackboard key of the adapted pressure target (Pa), read every cycle (empty: none).")
 
     _floor = -math.inf  # points at or below this z (m) are the table's
     _last: list[float] | None = None  # the last recorded contact point (m, world)
@@ -172,6 +217,12 @@ class RecordContacts(TactileBehaviour):
         super().__init__(name, *args, **parameters)
         self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
+        self.target_key = normalise_key(self.target_key) if self.target_key else ""
+        if self.target_key:
+            self._setup.register_key(key=self.target_key, access=Access.READ)
+        self._position: np.ndarray | None = None  # the pad's position last cycle (m, world)
+        self._speed = 0.0  # its speed into the object along the normal, low-passed (m/s)
+        self.skipped = 0  # cycles in contact not recorded because the contact was not settled
 
     def parameters_changed(self, changed: frozenset[str]) -> None:
         if "only_when" in changed:
@@ -195,6 +246,7 @@ class RecordContacts(TactileBehaviour):
     def initialise(self) -> None:
         self._last = None
         self._last_rotation = None
+        self._position = None
         table_z = table_height(self._setup, self.table_key)
         self._floor = table_z + self.table_margin_m if self.table_margin_m > 0 and math.isfinite(table_z) else -math.inf
 
@@ -203,6 +255,8 @@ class RecordContacts(TactileBehaviour):
         # products stay as they were (BLAS rounds them its own way).
         f = read(FEATURES_RAW)
         self._feedback = None
+        T = read(POSE)
+        approach = self._approach_speed(T)
         if not f.in_contact:
             self._in_contact = False
             return Status.RUNNING
@@ -210,7 +264,12 @@ class RecordContacts(TactileBehaviour):
         if self.only_when and not read_or(self.only_when, False):
             self._feedback = f"{len(self.contacts)} contacts, not recording ({self.only_when} is false)"
             return Status.RUNNING
-        T = read(POSE)
+        target = self.current_target()
+        unsettled = self._unsettled(f, target, approach)
+        if unsettled:
+            self.skipped += 1
+            self._feedback = f"{len(self.contacts)} contacts, not recording ({unsettled})"
+            return Status.RUNNING
         R = T[:3, :3]
         if self.point == "local":
             if f.orientation != f.orientation:  # no line direction this cycle: the COP lies on the chord
@@ -248,6 +307,44 @@ class RecordContacts(TactileBehaviour):
         cloud.append(p, (-n0, -n1, -n2), f.pressure, read(TIME))
         self._last = p
         return Status.RUNNING
+
+    def current_target(self) -> float:
+        """The pressure target of this cycle (Pa): ``target_key``'s value when it holds a
+        positive number, else ``nominal_pa``."""
+        if self.target_key:
+            value = read_or(self.target_key)
+            if isinstance(value, float) and value > 0.0:
+                return value
+        return self.nominal_pa
+
+    def _approach_speed(self, T: np.ndarray) -> float:
+        """The pad's speed into the object along its normal (m/s), averaged over the features'
+        smoothing window (``defaults.SMOOTHING_SAMPLES`` cycles, low-passed)."""
+        position = T[:3, 3]
+        previous, self._position = self._position, position.copy()
+        if previous is None:
+            self._speed = 0.0
+            return 0.0
+        n = T[:3, 2]
+        step = position - previous
+        speed = float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2]) / self.dt
+        self._speed += (speed - self._speed) / defaults.SMOOTHING_SAMPLES
+        return self._speed
+
+    def _unsettled(self, f, target: float, approach_mps: float) -> str:
+        """Why the contact of ``f`` is not settled ("" when it is)."""
+        pressure = read(FEATURES).pressure
+        if pressure > self.max_pressure_ratio * target:
+            return f"pressure {pressure:.0f} Pa above {self.max_pressure_ratio:g} x {target:.0f} Pa"
+        if pressure < self.min_pressure_ratio * target:
+            return f"pressure {pressure:.0f} Pa below {self.min_pressure_ratio:g} x {target:.0f} Pa"
+        if approach_mps > self.max_approach_mps:
+            return f"pressing in at {approach_mps * 1e3:.1f} mm/s"
+        if self.point != "region" and self.other_region_share < math.inf and f.force > 0.0:
+            others, _ = other_contact(f)
+            if others > self.other_region_share * f.force:
+                return f"a second region carrying {others / f.force:.0%} of the first's force"
+        return ""
 
     def _record_region(self, f, T: np.ndarray) -> None:
         """Add the imprint of ``f`` with the pad at ``T`` to the cloud."""

@@ -10,10 +10,14 @@ from typing import Sequence
 
 import numpy as np
 
+from py_trees.common import Access
+
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import ROLL_RADIUS, ServoLeaf
+from tactile_bt.tree.behaviours.contact_points import other_contact
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, read, read_or
 from tactile_bt.tree.declaration import Parameter
-from tactile_bt.tree.parameters import POSITIVE
+from tactile_bt.tree.parameters import POSITIVE, normalise_key
 
 __all__ = ["ForceHold", "Centre", "Roll", "AlignEdge", "TactileServo"]
 
@@ -24,6 +28,17 @@ class ForceHold(ServoLeaf):
 
     RUNNING while it servos (SUCCESS on convergence with ``converge``); its feedback message
     shows the pressure error (measured − target, Pa).
+
+    With ``target_key`` the target follows that blackboard key every cycle (a blackboard
+    reference ``target_pa: "@/key"`` is read only when the leaf starts): one dictionary look-up
+    per cycle, ``target_pa`` while the key holds no positive number. ``adapt_force_target``
+    writes such a key (:mod:`tactile_bt.tree.behaviours.stiffness`).
+
+    With ``all_regions`` the leaf holds the highest pressure of the contact at the target: the
+    pressure of the largest region (Eq. 2), or of the tactels in contact outside it (a second
+    contact, such as the far border of a flat pad bridging a hollow, low-passed over
+    ``smoothing_s``) when that is higher. Servoing on the largest region alone would press on
+    while the other border carries more and more. The logged error stays the largest region's.
     """
 
     uses = frozenset({"pressure"})
@@ -40,9 +55,54 @@ class ForceHold(ServoLeaf):
                                                   doc="Largest speed along the normal (m/s).")
     band = ServoLeaf.band.replace(default=0.05 * defaults.TARGET_PRESSURE_PA, unit="Pa",
                                   doc="Convergence band of the pressure error (Pa).")
+    target_key = Parameter("", fixed=True, doc="Blackboard key of a target that replaces ``target_pa`` every cycle "
+                                               "(Pa; empty: none).")
+    all_regions = Parameter(True, doc="Hold the highest pressure of every contact region at the target, not only "
+                                      "the largest region's.")
+    smoothing_s = Parameter(defaults.SMOOTHING_SAMPLES / defaults.RATE_HZ / 2, bound=POSITIVE,
+                            doc="Time constant of the low-pass on the other regions' pressure (s).")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.target_key = normalise_key(self.target_key) if self.target_key else ""
+        if self.target_key:
+            self._target_client = self.attach_blackboard_client(name=f"{self.name}/target")
+            self._target_client.register_key(key=self.target_key, access=Access.READ)
+        self._other_pa = 0.0  # low-passed pressure of the contact outside the largest region (Pa)
+        self._excess_pa = 0.0  # by how much it exceeded the largest region's this cycle (Pa)
+
+    def current_target(self) -> float:
+        """The pressure target of this cycle (Pa): ``target_key``'s value when it holds a
+        positive number, else ``target_pa``."""
+        if self.target_key:
+            value = read_or(self.target_key)
+            if isinstance(value, float) and value > 0.0:
+                return value
+        return self.target_pa
+
+    def initialise(self) -> None:
+        super().initialise()
+        self._other_pa = self._excess_pa = 0.0
 
     def targets(self):
-        return (0.0, 0.0), self.target_pa, 0.0
+        target = self.current_target()
+        if not self.all_regions:
+            return (0.0, 0.0), target, 0.0
+        raw = read(FEATURES_RAW)
+        force, count = other_contact(raw)
+        other = force / (count * raw.pad.tactel_area_m2) if count else 0.0
+        self._other_pa += (other - self._other_pa) * self.dt / (self.dt + self.smoothing_s)
+        # the error target - max(p, p_other), written as a lower target for the same formula
+        pressure = read(FEATURES).pressure
+        excess = self._other_pa - pressure if self._other_pa > pressure else 0.0
+        self._excess_pa = excess
+        return (0.0, 0.0), target - excess, 0.0
+
+    def update(self):
+        status = super().update()
+        if self._excess_pa and "pressure_pa" in self.command.errors:
+            self.command.errors["pressure_pa"] -= self._excess_pa  # the largest region's error, as logged
+        return status
 
 
 def _target_cop(name: str, target_m) -> tuple[float, float]:
