@@ -132,13 +132,13 @@ def _short(reason: str) -> str:
 
 
 def markdown(rows: list[dict], short: bool = False) -> str:
-    lines = ["| scene | seed | status: reason | mission | figures | peak force | over 2× target | verdict |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| scene, seed | status: reason | mission | figures | peak force | over 2× target | verdict |",
+             "|---|---|---|---|---|---|---|"]
     for row in rows:
         f = row["force"]
         force = "" if row["force_ok"] else " **(force)**"
         reason = _short(row["reason"]) if short else row["reason"]
-        lines.append(f"| `{row['scene']}` | {row['seed']} | {row['status']}: {reason} | "
+        lines.append(f"| `{row['scene']}` {row['seed']} | {row['status']}: {reason} | "
                      f"{row['sim_time_s']:.1f} of {row['budget_s']:.0f} s | {row['measures']} | "
                      f"{f['peak_force_n']:.1f} N | {f['longest_over_s']:.2f} s | {row['verdict']}{force} |")
     true = sum(r["verdict"] == "true success" for r in rows)
