@@ -122,13 +122,23 @@ def _job(args: tuple) -> dict:
                 "verdict": "**ERROR**", "false_success": False}
 
 
-def markdown(rows: list[dict]) -> str:
-    lines = ["| scene | seed | status: reason | mission | figures | peak force | over 2× target | verdict |",
-             "|---|---|---|---|---|---|---|---|"]
+def _short(reason: str) -> str:
+    """A reason without the counts in brackets and the lists after a semicolon, and without the
+    name of the node that gave it."""
+    for leaf in ("cable_end: ", "frontier_guidance: ", "end of cable: "):
+        reason = reason.replace(leaf, "")
+    cut = min((i for i in (reason.find(" ("), reason.find(";")) if i > 0), default=len(reason))
+    return reason[:cut]
+
+
+def markdown(rows: list[dict], short: bool = False) -> str:
+    lines = ["| scene, seed | status: reason | mission | figures | peak force | over 2× target | verdict |",
+             "|---|---|---|---|---|---|---|"]
     for row in rows:
         f = row["force"]
         force = "" if row["force_ok"] else " **(force)**"
-        lines.append(f"| `{row['scene']}` | {row['seed']} | {row['status']}: {row['reason']} | "
+        reason = _short(row["reason"]) if short else row["reason"]
+        lines.append(f"| `{row['scene']}` {row['seed']} | {row['status']}: {reason} | "
                      f"{row['sim_time_s']:.1f} of {row['budget_s']:.0f} s | {row['measures']} | "
                      f"{f['peak_force_n']:.1f} N | {f['longest_over_s']:.2f} s | {row['verdict']}{force} |")
     true = sum(r["verdict"] == "true success" for r in rows)
@@ -150,6 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="missions run at once (default: 2)")
     parser.add_argument("--figures", type=Path, default=None,
                         help="copy each scan's render (seed 0) to DIR/exploration_<scene>.png")
+    parser.add_argument("--short", action="store_true", help="reasons without their counts and lists (the README's table)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
     args = parser.parse_args(argv)
     jobs = []
@@ -167,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=max(args.workers, 1)) as pool:
         rows = list(pool.map(_job, jobs))
     rows.sort(key=lambda r: (r["kind"], r["scene"], r["seed"]))
-    print(markdown(rows))
+    print(markdown(rows, short=args.short))
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1, default=float))
     return 1 if any(r["false_success"] or not r["force_ok"] or r["status"] == "error" for r in rows) else 0
