@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import shutil
 import sys
 import tempfile
@@ -123,12 +124,14 @@ def _job(args: tuple) -> dict:
 
 
 def _short(reason: str) -> str:
-    """A reason without the counts in brackets and the lists after a semicolon, and without the
-    name of the node that gave it."""
+    """A reason without the counts in brackets (``(171 targets, …)``, ``(402 stall, …)``) and the
+    lists after a semicolon, and without the name of the node that gave it."""
     for leaf in ("cable_end: ", "frontier_guidance: ", "end of cable: "):
         reason = reason.replace(leaf, "")
-    cut = min((i for i in (reason.find(" ("), reason.find(";")) if i > 0), default=len(reason))
-    return reason[:cut]
+    counts = re.search(r" \(\d+ [a-z]", reason)
+    cut = min((i for i in (counts.start() if counts else -1, reason.find(";")) if i > 0), default=len(reason))
+    short = reason[:cut]
+    return short + ")" * (short.count("(") - short.count(")"))
 
 
 def markdown(rows: list[dict], short: bool = False) -> str:
