@@ -32,8 +32,8 @@ from py_trees.common import Access
 
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or", "write",
-           "write_cycle", "current_pad"]
+__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or",
+           "pressure_target", "write", "write_cycle", "current_pad"]
 
 NAMESPACE = "/tactile"
 KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts", "pad")
@@ -51,6 +51,17 @@ def read(key: str) -> Any:
 def read_or(key: str, default: Any = None) -> Any:
     """The value of a blackboard key, or ``default`` while nobody has written it."""
     return _STORAGE.get(key, default)
+
+
+def pressure_target(key: str, nominal_pa: float) -> float:
+    """A pressure target (Pa) that follows ``key`` (e.g. ``/force/target_pa``, which
+    ``adapt_force_target`` writes): its value while it holds a positive float, else
+    ``nominal_pa``; ``key`` empty: always ``nominal_pa``. Read every cycle."""
+    if key:
+        value = _STORAGE.get(key)
+        if isinstance(value, float) and value > 0.0:
+            return value
+    return nominal_pa
 
 
 def write(key: str, value: Any) -> None:

@@ -32,7 +32,7 @@ from py_trees.common import Access, Status
 
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import TactileBehaviour
-from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, POSE, TIME, read, read_or
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, POSE, TIME, pressure_target, read, read_or
 from tactile_bt.tree.behaviours.stiffness import FORCE_TARGET_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.declaration import Parameter
@@ -311,11 +311,7 @@ class RecordContacts(TactileBehaviour):
     def current_target(self) -> float:
         """The pressure target of this cycle (Pa): ``target_key``'s value when it holds a
         positive number, else ``nominal_pa``."""
-        if self.target_key:
-            value = read_or(self.target_key)
-            if isinstance(value, float) and value > 0.0:
-                return value
-        return self.nominal_pa
+        return pressure_target(self.target_key, self.nominal_pa)
 
     def _approach_speed(self, T: np.ndarray) -> float:
         """The pad's speed into the object along its normal (m/s), averaged over the features'

@@ -15,7 +15,7 @@ from py_trees.common import Access
 from tactile_bt import defaults
 from tactile_bt.tree.behaviours.base import ROLL_RADIUS, ServoLeaf
 from tactile_bt.tree.behaviours.contact_points import other_contact
-from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, read, read_or
+from tactile_bt.tree.blackboard import FEATURES, FEATURES_RAW, pressure_target, read
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import POSITIVE, normalise_key
 
@@ -74,11 +74,7 @@ class ForceHold(ServoLeaf):
     def current_target(self) -> float:
         """The pressure target of this cycle (Pa): ``target_key``'s value when it holds a
         positive number, else ``target_pa``."""
-        if self.target_key:
-            value = read_or(self.target_key)
-            if isinstance(value, float) and value > 0.0:
-                return value
-        return self.target_pa
+        return pressure_target(self.target_key, self.target_pa)
 
     def initialise(self) -> None:
         super().initialise()
