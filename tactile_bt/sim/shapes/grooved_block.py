@@ -114,8 +114,3 @@ class GroovedBlock(SimObject):
         if mesh.volume < 0:
             mesh.invert()
         return mesh
-
-    def view_surface(self, pv, extent: np.ndarray):
-        mesh = self.surface_mesh()
-        faces = np.column_stack((np.full(len(mesh.faces), 3), mesh.faces)).ravel()
-        return pv.PolyData(np.asarray(mesh.vertices), faces)

@@ -100,8 +100,3 @@ class Pyramid(SimObject):
         import trimesh
 
         return trimesh.convex.convex_hull(self._corners())
-
-    def view_surface(self, pv, extent: np.ndarray):
-        mesh = self.surface_mesh()
-        faces = np.column_stack((np.full(len(mesh.faces), 3), mesh.faces)).ravel()
-        return pv.PolyData(np.asarray(mesh.vertices), faces)
