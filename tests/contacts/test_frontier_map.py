@@ -7,14 +7,7 @@ import numpy as np
 import numpy.testing as npt
 
 from tactile_bt.contacts.frontier_map import GAP, OPEN, FrontierMap
-
-
-def disc(radius: float, centre=(0.0, 0.0), z: float = 0.05, step: float = 0.001, normal=(0.0, 0.0, 1.0)):
-    g = np.arange(-radius, radius + 1e-9, step)
-    X, Y = np.meshgrid(g, g)
-    keep = X**2 + Y**2 <= radius**2
-    pts = np.column_stack((X[keep] + centre[0], Y[keep] + centre[1], np.full(keep.sum(), z)))
-    return pts, np.tile(np.asarray(normal, float) / np.linalg.norm(normal), (len(pts), 1))
+from scan_helpers import disc
 
 
 def test_frontier_is_the_rim_of_the_touched_disc_with_outward_directions():

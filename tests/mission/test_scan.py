@@ -23,19 +23,11 @@ from tactile_bt.sim.shapes import Box, Cylinder, Sphere
 from tactile_bt.sim.objects import object_pose
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
+from scan_helpers import ticks_until_done
 
 DT = 1.0 / 250.0
 DOWN = Rotation.from_euler("x", 180, degrees=True)  # pad facing down: x_s = x_g, y_s = -y_g
 
-
-
-def ticks_until_done(h, n, **features):
-    """Tick up to ``n`` times; the number of ticks until the leaf finished and its status."""
-    for k in range(1, n + 1):
-        status = h.tick(make_features(**features))
-        if status != Status.RUNNING:
-            return k, status
-    return n, Status.RUNNING
 
 
 def pressed_on_box(x_centre: float, box: Box | None = None, depth: float = 2e-4):

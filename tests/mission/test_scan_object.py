@@ -23,6 +23,7 @@ from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, Front
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
 from tactile_bt.tree.blackboard import POSE
+from scan_helpers import disc
 
 REPO = Path(__file__).resolve().parents[2]
 DT = 1.0 / 250.0
@@ -274,17 +275,6 @@ def test_square_to_slope_never_swings_a_corner_downhill():
             h.tick()
             assert abs(leaf.error_rad) <= math.radians(55.0) + 1e-9
             assert abs(leaf.turned_rad) <= math.radians(120.0) + 0.01
-
-
-# --------------------------------------------------------------------------------- the map
-
-
-def disc(radius: float, centre=(0.0, 0.0), z: float = 0.05, step: float = 0.001, normal=(0.0, 0.0, 1.0)):
-    g = np.arange(-radius, radius + 1e-9, step)
-    X, Y = np.meshgrid(g, g)
-    keep = X**2 + Y**2 <= radius**2
-    pts = np.column_stack((X[keep] + centre[0], Y[keep] + centre[1], np.full(keep.sum(), z)))
-    return pts, np.tile(np.asarray(normal, float) / np.linalg.norm(normal), (len(pts), 1))
 
 
 # ----------------------------------------------------------------------------- the planner

@@ -13,18 +13,10 @@ from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
 from tactile_bt.tree.behaviours import (ContactJumped, ContactShrank, ContactStalled, PadTurned, RollingOverEdge,
                                         TiltLimit)
+from scan_helpers import ticks_until_done
 
 DT = 1.0 / 250.0
 DOWN = Rotation.from_euler("x", 180, degrees=True)  # pad facing down: x_s = x_g, y_s = -y_g
-
-
-def ticks_until_done(h, n, **features):
-    """Tick up to ``n`` times; the number of ticks until the leaf finished and its status."""
-    for k in range(1, n + 1):
-        status = h.tick(make_features(**features))
-        if status != Status.RUNNING:
-            return k, status
-    return n, Status.RUNNING
 
 
 def pose(rotation: Rotation, position) -> np.ndarray:
