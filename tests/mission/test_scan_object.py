@@ -23,7 +23,7 @@ from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, Front
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
 from tactile_bt.tree.blackboard import POSE
-from scan_helpers import disc
+from scan_helpers import disc, ticks_until_done
 
 REPO = Path(__file__).resolve().parents[2]
 DT = 1.0 / 250.0
@@ -415,11 +415,7 @@ def test_the_table_guard_still_fails_the_scan_when_it_must(case):
     h.tick(make_features())
     if case == "stays":  # 0.2 mm above the table, and it does not get clear within 1 s
         assert sink(h, 0.015, DROP + 0.0002) == Status.RUNNING
-        status = Status.RUNNING
-        for _ in range(int(1.2 / h.dt)):
-            status = h.tick(make_features())
-            if status != Status.RUNNING:
-                break
+        _, status = ticks_until_done(h, int(1.2 / h.dt))
         expected = "not clear after backing off 1.0 s"
     elif case == "hits":  # through the limit onto the table at once
         status = sink(h, 0.015, DROP - 0.0005, ticks=10)
@@ -465,11 +461,7 @@ def test_no_frontier_left_is_a_failure_while_edges_leave_it_unexplained():
     for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
         leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause="edge")
     leaf.target = None
-    status = Status.RUNNING
-    for _ in range(10):
-        status = h.tick(make_features())
-        if status != Status.RUNNING:
-            break
+    _, status = ticks_until_done(h, 10)
     assert status == Status.FAILURE
     assert "unexplained" in leaf.feedback_message and "edge" in leaf.feedback_message
     left = leaf.frontier_left()
@@ -482,11 +474,7 @@ def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_appl
     for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
         leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause="stall")
     leaf.target = None
-    status = Status.RUNNING
-    for _ in range(10):
-        status = h.tick(make_features())
-        if status != Status.RUNNING:
-            break
+    _, status = ticks_until_done(h, 10)
     assert status == Status.FAILURE and leaf.feedback_message.startswith("re-approaching the frontier")
     job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
     point, normal = job["probe"]
@@ -592,11 +580,7 @@ def _all_frontier_at_the_table(patch, contact):
     for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
         leaf.map.block(contact[:2], 0.1, (math.cos(angle), math.sin(angle)), cause="table")
     leaf.target = None
-    status = Status.RUNNING
-    for _ in range(10):
-        status = h.tick(make_features())
-        if status != Status.RUNNING:
-            break
+    _, status = ticks_until_done(h, 10)
     return leaf, status
 
 
