@@ -328,6 +328,11 @@ class ServoCommand:
         """Record the error of a controlled feature this cycle (for logs and metrics)."""
         self.errors[feature] = float(value)
 
+    def summed(self) -> np.ndarray:
+        """The parts added so far this cycle, summed, before the twist limits (sensor frame,
+        m/s and rad/s): what a leaf ticked after the others (a guard) sees of the cycle."""
+        return np.array(self._sum, dtype=float)
+
     def twist(self) -> np.ndarray:
         """The summed sensor-frame twist of this cycle, within the twist limits."""
         return np.array(_limited(self._sum, self.linear_limit, self.angular_limit))

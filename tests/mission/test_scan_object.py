@@ -13,16 +13,16 @@ from numpy.testing import assert_allclose
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.control.spatial import make_pose
+from tactile_bt.control.spatial import exp_twist, make_pose
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.mission.loop import root_outcome, success_reason
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.testing import LeafHarness, contact_frame, make_features
-from tactile_bt.tree.behaviours import (Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
+from tactile_bt.tree.behaviours import (TactileBehaviour, Centre, CentreTo, CoverageStalled, FrontierGuidance, RecordContacts, Roll,
                                         RollTo, SquareToSlope, TableClearance, TableOffset)
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
-from tactile_bt.tree.blackboard import POSE
+from tactile_bt.tree.blackboard import JOINTS_HELD, POSE
 from scan_helpers import disc, ticks_until_done
 
 REPO = Path(__file__).resolve().parents[2]
@@ -100,6 +100,76 @@ def test_a_table_height_that_is_not_a_number_is_an_error():
     h.set(TABLE_Z_KEY, "high")
     with pytest.raises(BlackboardReferenceError, match="table's height"):
         h.tick()
+
+
+class _Twist(TactileBehaviour):
+    """Adds a fixed sensor-frame twist every tick: what the servo leaves of a scan add."""
+
+    def __init__(self, twist, name: str | None = None) -> None:
+        super().__init__(name)
+        self._twist = tuple(float(v) for v in twist)
+
+    def update(self) -> Status:
+        self.command.add(self.name, self._twist)
+        return Status.RUNNING
+
+
+def _braked_run(twist, start, seconds=2.0, **guard):
+    """A leaf adding ``twist`` and, after it, a braking guard; the pad moved by the cycle's twist
+    each tick. Returns the guard, the corner heights and the twists applied."""
+    guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0, brake_s=0.2, **guard)
+    root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                        children=[_Twist(twist), guard])
+    h = LeafHarness(root, pose=start)
+    h.set(TABLE_Z_KEY, 0.0)
+    heights, applied = [], []
+    T = start
+    for _ in range(int(seconds / DT)):
+        assert h.tick(frame=contact_frame()) == Status.RUNNING, guard.feedback_message
+        V = h.command.twist()
+        applied.append(V)
+        T = T @ exp_twist(V, DT)
+        h.set_pose(T)
+        heights.append(pad_clearance(T, PAD, 0.0))
+    return guard, np.array(heights), np.array(applied)
+
+
+def test_the_brake_slows_a_roll_towards_the_table_and_the_corner_stays_above_the_limit():
+    # the pad tilted 20°, its lowest corner 10 mm up, rolling on at 1 rad/s towards the table:
+    # unbraked, the corner would reach the table within 0.2 s
+    guard, heights, applied = _braked_run((0.0, 0.0, 0.0, 0.0, -1.0, 0.0), pose(tilted(20), (0.0, 0.0, 0.0237)))
+    assert heights[0] > 0.009
+    assert heights.min() >= 0.0005 + 0.001 - 1e-4  # above the limit and its margin
+    assert guard.trips == 0 and guard.braked
+    assert abs(applied[0][4]) > 0.5 and abs(applied[-1][4]) < 0.01  # full speed, then almost stopped
+
+
+def test_the_brake_keeps_the_slide_and_lifts_what_the_translation_alone_would_lower():
+    # a slide along the pad (sensor x) while pressing in (sensor z, down the tilted normal)
+    start = pose(tilted(20), (0.0, 0.0, 0.016))
+    guard, heights, applied = _braked_run((0.01, 0.0, 0.01, 0.0, 0.0, 0.0), start, seconds=3.0)
+    assert heights.min() >= 0.0005 + 0.001 - 1e-4
+    assert heights[-1] < 0.002  # it came down to the brake's floor
+    # the lift is along the world's z only: across the table the pad moves as commanded
+    R = start[:3, :3]
+    world = applied[:, :3] @ R.T
+    assert_allclose(world[:, :2], np.tile((R @ [0.01, 0.0, 0.01])[:2], (len(world), 1)), atol=1e-9)
+    assert guard.trips == 0
+
+
+def test_without_a_brake_the_same_roll_trips_the_guard():
+    guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0)
+    root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                        children=[_Twist((0.0, 0.0, 0.0, 0.0, -1.0, 0.0)), guard])
+    T = pose(tilted(20), (0.0, 0.0, 0.0237))
+    h = LeafHarness(root, pose=T)
+    h.set(TABLE_Z_KEY, 0.0)
+    for _ in range(100):
+        if h.tick(frame=contact_frame()) != Status.RUNNING:
+            break
+        T = T @ exp_twist(h.command.twist(), DT)
+        h.set_pose(T)
+    assert guard.trips >= 1
 
 
 @pytest.mark.slow
@@ -486,6 +556,26 @@ def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_appl
         h.tick(make_features())
     assert leaf.frontier_left()["explained"].get("table", 0.0) > 0.01
     assert leaf.ends["re-approach: table"] == 1
+
+
+@pytest.mark.parametrize("held, cause", [((7,), "reach"), ((), "contact lost")])
+def test_a_contact_lost_while_the_arm_holds_a_joint_at_its_limit_is_out_of_reach(held, cause):
+    leaf, h = planner_harness(disc(0.02), (0.015, 0.0))
+    h.tick(make_features())
+    assert leaf.target is not None
+    h.set(JOINTS_HELD, held)  # what the mission writes after the arm moved
+    h.tick(make_features())
+    h.set(JOINTS_HELD, ())
+    h.tick(make_features(in_contact=False))  # the pad could not follow: the contact is lost
+    assert leaf.ends[cause] == 1 and leaf.blocks == 1
+    for _ in range(20):  # in touch again: the planner chooses anew
+        h.tick(make_features())
+    explained = leaf.frontier_left()["explained"]
+    if held:
+        assert "joint 7 at its limit" in leaf.last_end
+        assert explained.get("reach", 0.0) > 0.0
+    else:
+        assert not explained
 
 
 @pytest.mark.parametrize("unexplained, status", [({"edge": 0.05}, Status.FAILURE), ({}, Status.SUCCESS)])

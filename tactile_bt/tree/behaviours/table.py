@@ -89,6 +89,15 @@ class TableClearance(TactileBehaviour):
     (``frontier_guidance`` does). It fails when the corner stays below the limit longer than
     ``recover_s``, when it comes below ``hit_m`` (the pad touches the table), or at the
     ``max_trips``-th trip.
+
+    With ``brake_s > 0`` it also looks ahead: each cycle it takes the twist the leaves ticked
+    before it have summed (the guard belongs last in the tree), predicts where the pad's
+    corners will be after ``brake_s`` at that twist, and where one would come below
+    ``min_clearance_m + brake_margin_m`` it slows the turn down just enough that it does not,
+    and lifts the pad (world z) by what the translation alone would still lower it. A roll that
+    would swing a corner down onto the table at 1 rad/s then slows as the corner nears it, and
+    the corner settles above the limit instead of tripping the guard; the pad's sliding goes
+    on, and motions that lift the corners are never slowed.
     """
 
     min_clearance_m = Parameter(0.001, doc="Least height of the lowest corner above the table (m; may be negative to "
@@ -100,6 +109,12 @@ class TableClearance(TactileBehaviour):
     hit_m = Parameter(0.0, doc="With recovery, the guard fails at once below this height of the corner (m; at most "
                                "``min_clearance_m``).")
     max_trips = Parameter(0, bound=NON_NEGATIVE, unit=None, doc="With recovery, the guard fails at this trip (0: any number).")
+    brake_s = Parameter(0.0, bound=NON_NEGATIVE,
+                        doc="Look-ahead of the brake (s; 0: no brake): the cycle's turn is slowed, and the pad lifted, "
+                            "where the twist would bring a corner below ``min_clearance_m + brake_margin_m`` within "
+                            "this time.")
+    brake_margin_m = Parameter(0.001, bound=NON_NEGATIVE, doc="Height above ``min_clearance_m`` the brake keeps the "
+                                                              "corners at (m).")
     table_key = Parameter(TABLE_Z_KEY, fixed=True, doc="Blackboard key of the table's height (m, world z).")
     alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True, doc="Blackboard key of the alarm (see above).")
 
@@ -115,6 +130,8 @@ class TableClearance(TactileBehaviour):
         #: Trips since the guard started, and the mission time (s) of the current one (None: clear).
         self.trips = 0
         self._tripped_at: float | None = None
+        #: Whether the brake slowed the twist down at the last tick.
+        self.braked = False
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -139,6 +156,8 @@ class TableClearance(TactileBehaviour):
             return Status.RUNNING
         corner = lowest_corner(self.pose, self.pad, self.margin_m)
         self.clearance_m = clearance = float(corner[2] - self.table_z_m)
+        if self.brake_s > 0:
+            self._brake()
         if clearance >= self.min_clearance_m:
             self._tripped_at = None
             self._setup.set(self.alarm_key, None)
@@ -163,6 +182,33 @@ class TableClearance(TactileBehaviour):
         self._setup.set(self.alarm_key, corner.copy())
         self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
+
+    def _brake(self) -> None:
+        """Slow the cycle's turn down, and lift the pad if its translation alone would still
+        do it, so that no corner comes below the brake's floor within ``brake_s`` (see the
+        class docstring)."""
+        twist = self.command.summed()
+        v, w = twist[:3], twist[3:]
+        pose = self.pose
+        corners = self.pad.corners_m()
+        if self.margin_m > 0:
+            corners = corners + np.sign(corners) * np.array([self.margin_m, self.margin_m, 0.0])
+        up = pose[2, :3]  # the world's z in the sensor frame
+        floor_rate = -(np.maximum(corners @ up + pose[2, 3] - self.table_z_m
+                                  - (self.min_clearance_m + self.brake_margin_m), 0.0)) / self.brake_s
+        a = float(v @ up)  # m/s of every corner, world z, from the translation
+        b = np.cross(w, corners) @ up  # and from the turn
+        short = floor_rate - (a + b)
+        self.braked = bool((short > 0.0).any())
+        if not self.braked:
+            return
+        # the turn scaled down as far as the corners that it lowers need, the translation kept
+        lowering = b < 0.0
+        scale = 1.0
+        if lowering.any():
+            scale = float(np.clip(np.min((a - floor_rate[lowering]) / -b[lowering]), 0.0, 1.0))
+        lift = max(0.0, float(np.max(floor_rate - (a + scale * b))))  # what the translation still lowers
+        self.command.add(self.name, (*(up * lift), *((scale - 1.0) * w)))
 
     def describe(self) -> str:
         """The clearance of the pad's lowest corner at the last tick, and the trips."""
