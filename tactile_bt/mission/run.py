@@ -30,6 +30,7 @@ from tactile_bt.mission.outputs import prepare_output_dir, present_outputs
 from tactile_bt.mission.result import MissionResult, finish_mission
 from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
 from tactile_bt.mission.watch import MissionWatcher, finish_watchers, start_watchers
+from tactile_bt.tree.blackboard import write_joints_held
 from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
@@ -156,6 +157,7 @@ def run_mission(
         raise MissionInterrupted(out, earlier=present_outputs(out)) from None
     pad = scene.sensor.geometry
     table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
+    write_joints_held(None)  # nothing held yet (nor left from an earlier mission in this process)
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
     contacts = loop.contacts
     supervisor = Supervisor(SupervisorLimits.for_tree(tree, scene.supervisor))
@@ -204,7 +206,10 @@ def run_mission(
             world.move(body_to_spatial(pose, twist_s), dt)
             log.write(k, t, loop, twist_s, pose, world.last_penetration)
             if joints is not None:
-                log.write_joints(k, joints(), *(arm_state() if arm_state is not None else ()))
+                state = arm_state() if arm_state is not None else ()
+                log.write_joints(k, joints(), *state)
+                if state:
+                    write_joints_held(state[0])  # what the tree sees of the arm next cycle
             for watcher in watchers:
                 watcher.cycle(k, t, loop, log)
             if progress is not None and k % progress_every == 0:

@@ -14,6 +14,12 @@ key                content
 ``pad``            the pad's :class:`~tactile_bt.sense.geometry.PadGeometry`
 =================  ==================================================================
 
+One key outside ``/tactile`` comes from the arm: ``/robot/joints_held`` (:data:`JOINTS_HELD`),
+the joints (numbered from 1) the arm held at a position limit in the last cycle, written by
+:func:`write_joints_held` after the arm has moved; absent when the mount says nothing of its
+joints. A pad that stops following where the planner sends it is then out of the arm's reach,
+not at the end of the surface.
+
 The keys are registered once by :func:`cycle_writer` (so py_trees knows who writes them); the
 per-cycle values are then read and written through :func:`read` and :func:`write`, straight in
 the blackboard's storage: a client's access bookkeeping costs several microseconds a read, more
@@ -32,14 +38,18 @@ from py_trees.common import Access
 
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or",
+__all__ = ["JOINTS_HELD", "write_joints_held", "joints_held", "NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or",
            "pressure_target", "write", "write_cycle", "current_pad"]
 
 NAMESPACE = "/tactile"
 KEYS = ("features", "features_raw", "time", "dt", "command", "pose", "contacts", "pad")
 FEATURES, FEATURES_RAW, TIME, POSE, PAD = (f"{NAMESPACE}/{k}" for k in ("features", "features_raw", "time", "pose",
                                                                           "pad"))
+#: Blackboard key of the joints the arm held at a position limit in the last cycle (tuple of
+#: joint numbers from 1; absent: the mount does not say).
+JOINTS_HELD = "/robot/joints_held"
 _STORAGE = py_trees.blackboard.Blackboard.storage
+_NONE_HELD: tuple = ()
 _DEFAULT_PAD = PadGeometry()
 
 
@@ -75,6 +85,19 @@ def write_cycle(t: float, pose: np.ndarray, features_raw, features) -> None:
     _STORAGE[POSE] = pose
     _STORAGE[FEATURES_RAW] = features_raw
     _STORAGE[FEATURES] = features
+
+
+def write_joints_held(saturated) -> None:
+    """Put the joints held at a position limit in the last cycle on :data:`JOINTS_HELD`, from
+    the arm's per-joint flags (``saturated``: one bool per joint)."""
+    held = tuple(i + 1 for i, s in enumerate(saturated) if s) if saturated is not None else _NONE_HELD
+    _STORAGE[JOINTS_HELD] = held or _NONE_HELD
+
+
+def joints_held() -> tuple:
+    """The joints (numbered from 1) the arm held at a position limit in the last cycle; () when
+    none, or when the mount does not say."""
+    return _STORAGE.get(JOINTS_HELD, _NONE_HELD) or _NONE_HELD
 
 
 def current_pad() -> PadGeometry:

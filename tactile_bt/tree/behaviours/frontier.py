@@ -28,7 +28,10 @@ When no reachable frontier is left, the leaf sums the frontier left by reason
 (:meth:`FrontierGuidance.frontier_left`, also on ``/scan/frontier_left`` for the report and for
 ``coverage_stalled``): the object's foot at the table and a surface steeper than the tilt limit
 explain it; an edge, a stall, a jump, a lost contact or a target not reached in time do not
-(the surface beyond may go on). It succeeds only when at most ``max_unexplained_m`` is left
+(the surface beyond may go on), except that a stall, a lost contact or a target not reached
+while the arm held a joint at its position limit (within the last second, from
+``/robot/joints_held``, :data:`tactile_bt.tree.blackboard.JOINTS_HELD`) is the arm's reach,
+which does. It succeeds only when at most ``max_unexplained_m`` is left
 unexplained, and fails otherwise, its message naming what is left. It knows nothing of the
 object's size, pose or shape beyond what the pad has touched.
 
@@ -50,7 +53,7 @@ from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, Frontier
 from tactile_bt.tree.behaviours.scan import tangent_guidance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
-from tactile_bt.tree.blackboard import read_or, write
+from tactile_bt.tree.blackboard import joints_held, read_or, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
@@ -70,6 +73,11 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
+#: Ends an arm holding a joint at its limit explains: the pad stopped, or lost the contact,
+#: because the arm could not follow (its reach), not because the surface ends.
+_HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
+#: A joint held at its limit this recently (s) explains those ends.
+_HELD_S = 1.0
 
 
 class FrontierGuidance(FrontierLeft, TactileBehaviour):
@@ -266,6 +274,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         self._retreat: tuple | None = None
         self._last_point: np.ndarray | None = None
         self._point: np.ndarray | None = None  # the low-passed contact point
+        self._held: tuple = ((), -math.inf)  # the joints last held at a limit, and when
         self._start_tilt_cos = -2.0
         self._cause = ""
 
@@ -350,6 +359,9 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
             radius, centre = self.local_block_radius_m, point
         d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
         cause = cause or why
+        if cause in _HELD_CAUSES and self._held[0] and self.now - self._held[1] <= _HELD_S:
+            joints = " and ".join(str(j) for j in self._held[0])
+            why, cause = f"{why} with joint {joints} at its limit", "reach"
         self.map.block(centre[:2], radius, d, cause=cause)
         self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
         if self.target is not None:
@@ -416,6 +428,9 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
 
     def update(self) -> Status:
         self._feedback = None
+        held = joints_held()
+        if held:
+            self._held = (held, self.now)
         point = self._contact_point()
         if point is None:  # no contact: hold still, the guards decide
             if self.target is not None and self._last_point is not None:
