@@ -33,6 +33,10 @@ from tactile_bt.control.spatial import body_to_spatial
 from tactile_bt.mission.robot_file import RobotFile, load_robot_file
 from tactile_bt.mission.twin_devices import raise_priority
 
+#: A joint this close to a position limit (rad) counts as held there, for the tree
+#: (``/robot/joints_held``): the measured angle of a joint resting on its stop.
+JOINT_HELD_MARGIN_RAD = math.radians(0.5)
+
 __all__ = ["RealtimeLog", "run_live", "realtime_summary", "plot_realtime"]
 
 #: How long to wait for the robot's first pose (s).
@@ -151,6 +155,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     from tactile_bt.sense.hardware.driver import SerialTactileSensor
     from tactile_bt.sim.scene import Scene, load_scene
     from tactile_bt.tree.behaviours.table import write_table_height
+    from tactile_bt.tree.blackboard import write_joints_held
     from tactile_bt.tree.loader import load_tree
 
     warmup.start()  # on a cold kernel cache, compile now: never in the first cycles on the arm
@@ -171,6 +176,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
         notes.append(f"{setup.file}: no sensor.calibration: using the nominal tactel characteristic")
         calibration = TactelCalibration.nominal(pad=pad)
     write_table_height(setup.table_z_m)
+    write_joints_held(None)  # nothing held yet (nor left from an earlier mission in this process)
     limits = SupervisorLimits.for_tree(tree, {"sensor_silence_s": defaults.LIVE_SENSOR_SILENCE_PERIODS * dt,
                                               **setup.supervisor})
     n_cycles = MAX_CYCLES if duration is None else int(round(duration * setup.rate_hz))
@@ -243,6 +249,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
                 state = robot_obj.joint_state()
                 if state is not None:
                     log.write_joints(k, state.positions_rad)
+                    write_joints_held(state.near_limit(JOINT_HELD_MARGIN_RAD))  # seen by the next tick
             if progress is not None and k % progress_every == 0:
                 progress(t, duration or 0.0)
             outcome = root_outcome(tree.root)
