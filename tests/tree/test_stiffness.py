@@ -74,6 +74,23 @@ def test_the_secant_of_a_loaded_contact_is_its_stiffness_and_is_held_once_loaded
     assert est.update(True, 400.0, pad_at(0.02), loaded_pa=1000.0) and est.loading
 
 
+def test_turning_about_a_contact_at_the_pad_s_corner_is_no_indentation():
+    # the pad lands on its corner (35, 35) mm and rolls about it: its centre travels along the
+    # normal by millimetres, the pad's point at the contact not at all
+    from scipy.spatial.transform import Rotation
+
+    corner = np.array([0.035, 0.035, 0.0])
+    est = ContactStiffness(min_travel_m=0.2e-3, min_rise_pa=100.0)
+    contact_world = np.array([0.0, 0.0, 0.02])
+    for i in range(40):
+        R = DOWN @ Rotation.from_rotvec([0.004 * i, -0.004 * i, 0.0]).as_matrix()
+        pose = make_pose(R, contact_world - R @ corner)  # the corner stays where it touches
+        est.update(True, 400.0, pose, loaded_pa=1800.0, cop_xy=(corner[0], corner[1]))
+    centre_travel = abs(float(DOWN[:, 2] @ ((contact_world - R @ corner) - (contact_world - DOWN @ corner))))
+    assert centre_travel > 1e-3
+    assert abs(est.indentation_m) < 1e-9
+
+
 def test_the_target_is_lowered_only_where_the_object_cannot_carry_it():
     # 1 mm of give at half share: a soft object carries 300 + 4e5 * 0.5e-3 = 500 Pa
     assert carried_target(2000.0, 400.0, 4e5, 300.0, 1e-3, 0.5) == pytest.approx(500.0)

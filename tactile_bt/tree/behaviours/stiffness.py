@@ -9,8 +9,9 @@ writes a target the object can carry to a blackboard key that ``force_hold`` (``
 and ``record_contacts`` follow every cycle.
 
 The estimate (:class:`ContactStiffness`) is a secant per contact: from the cycle the contact
-begins, the indentation ``d`` is the pad's travel along its own normal (``+z`` of the sensor
-frame, towards the object; summed cycle by cycle, so the pad may turn) and the stiffness is
+begins, the indentation ``d`` is the travel, along the pad's normal (``+z`` of the sensor frame,
+towards the object), of the pad's point at the contact (the centre of pressure; summed cycle by
+cycle, so the pad may turn, and turning about the contact is no travel) and the stiffness is
 ``k = (p - p0) / d`` (Pa/m), ``p`` the raw pressure and ``p0`` the pressure when the contact
 began. It counts once ``d`` exceeds ``min_travel_m`` and ``p`` has risen by ``min_rise_pa``,
 follows the contact while the pad loads it (until the pressure first reaches 0.9 times the
@@ -106,10 +107,13 @@ class ContactStiffness:
         self._position: np.ndarray | None = None
 
     def update(self, in_contact: bool, pressure_pa: float, pose: np.ndarray, loaded_pa: float,
-               give: Callable[[], float] = lambda: math.inf) -> bool:
+               give: Callable[[], float] = lambda: math.inf, cop_xy: tuple[float, float] = (0.0, 0.0)) -> bool:
         """One cycle: raw contact flag and pressure (Pa), the pad's pose ``T_gs`` (m), the
-        pressure (Pa) at which loading ends and, called when a contact begins, what it can give
-        (m). Returns whether a contact began this cycle."""
+        pressure (Pa) at which loading ends, called when a contact begins, what it can give
+        (m), and where the contact lies on the pad (``cop_xy``, m, sensor frame): the travel is
+        that of the pad's point there, so that turning about a contact off the centre (a pad
+        landing on its corner and rolling flat) is no indentation. Returns whether a contact
+        began this cycle."""
         began = in_contact and not self._in_contact
         self._in_contact = in_contact
         if not in_contact:
@@ -118,6 +122,9 @@ class ContactStiffness:
                 self.loading = False
             self._position = None
             return False
+        x, y = cop_xy
+        if not (math.isfinite(x) and math.isfinite(y)):
+            x = y = 0.0
         position = pose[:3, 3]
         if began or self._position is None:
             self.indentation_m = 0.0
@@ -125,11 +132,13 @@ class ContactStiffness:
             self.contact_give_m = float(give())
             self.loading = True
             self.contacts += 1
-        else:
-            step = position - self._position
-            n = pose[:3, 2]
+        else:  # the travel of the pad's point at the contact, from the last pose to this one
+            R, R0 = pose[:3, :3], self._rotation
+            step = position - self._position + (R[:, 0] - R0[:, 0]) * x + (R[:, 1] - R0[:, 1]) * y
+            n = R[:, 2]
             self.indentation_m += float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2])
         self._position = position.copy()
+        self._rotation = pose[:3, :3].copy()
         if self.loading:
             d = self.indentation_m
             rise = pressure_pa - self._onset
@@ -228,7 +237,8 @@ class AdaptForceTarget(TactileBehaviour):
         f = read(FEATURES_RAW)
         T = read(POSE)
         estimator = self.estimator
-        estimator.update(bool(f.in_contact), float(f.pressure), T, 0.9 * self.target, lambda: self._give(f, T))
+        estimator.update(bool(f.in_contact), float(f.pressure), T, 0.9 * self.target, lambda: self._give(f, T),
+                         f.cop_xy if f.in_contact else (0.0, 0.0))
         k, give = estimator.stiffness_pa_per_m, estimator.give_m
         wanted = carried_target(self.target_pa, self.floor_pa, k, estimator.onset_pa, give, self.give_share)
         if estimator.loading:
