@@ -104,7 +104,7 @@ class ContactStiffness:
         self.contacts = 0
         self._kept = (math.nan, 0.0, math.inf)  # stiffness, onset, give of the last loaded contact
         self._in_contact = False
-        self._position: np.ndarray | None = None
+        self._last_pose: list | None = None  # T_gs as nested lists, while a contact is loading
 
     def update(self, in_contact: bool, pressure_pa: float, pose: np.ndarray, loaded_pa: float,
                give: Callable[[], float] = lambda: math.inf, cop_xy: tuple[float, float] = (0.0, 0.0)) -> bool:
@@ -120,26 +120,24 @@ class ContactStiffness:
             if self.loading:  # lost before it was loaded: back to the last loaded contact
                 self.stiffness_pa_per_m, self.onset_pa, self.give_m = self._kept
                 self.loading = False
-            self._position = None
             return False
-        x, y = cop_xy
-        if not (math.isfinite(x) and math.isfinite(y)):
-            x = y = 0.0
-        position = pose[:3, 3]
-        if began or self._position is None:
+        if began:
             self.indentation_m = 0.0
             self._onset = float(pressure_pa)
             self.contact_give_m = float(give())
             self.loading = True
             self.contacts += 1
-        else:  # the travel of the pad's point at the contact, from the last pose to this one
-            R, R0 = pose[:3, :3], self._rotation
-            step = position - self._position + (R[:, 0] - R0[:, 0]) * x + (R[:, 1] - R0[:, 1]) * y
-            n = R[:, 2]
-            self.indentation_m += float(n[0] * step[0] + n[1] * step[1] + n[2] * step[2])
-        self._position = position.copy()
-        self._rotation = pose[:3, :3].copy()
-        if self.loading:
+        elif self.loading:  # the travel of the pad's point at the contact, from the last pose to this one
+            x, y = cop_xy
+            if not (math.isfinite(x) and math.isfinite(y)):
+                x = y = 0.0
+            t, t0 = pose.tolist(), self._last_pose  # plain floats: this runs every cycle of a loading
+            sx = t[0][3] - t0[0][3] + (t[0][0] - t0[0][0]) * x + (t[0][1] - t0[0][1]) * y
+            sy = t[1][3] - t0[1][3] + (t[1][0] - t0[1][0]) * x + (t[1][1] - t0[1][1]) * y
+            sz = t[2][3] - t0[2][3] + (t[2][0] - t0[2][0]) * x + (t[2][1] - t0[2][1]) * y
+            self.indentation_m += t[0][2] * sx + t[1][2] * sy + t[2][2] * sz
+        if self.loading:  # the pose is needed only to follow a loading (once loaded the estimate is kept)
+            self._last_pose = pose.tolist()
             d = self.indentation_m
             rise = pressure_pa - self._onset
             if rise >= self.min_rise_pa and (d >= self.min_travel_m or pressure_pa >= loaded_pa):
