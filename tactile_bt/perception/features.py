@@ -146,6 +146,12 @@ class ContactFeatures:
         The pad the image came from: its pitch gives ``pressure``, its centre and pitch ``cop``.
     image : numpy.ndarray or None
         The (sanitised) force image the features came from, N per tactel; not copied.
+    others_force : float
+        Force in N of every tactel above the threshold outside R: the other contact regions
+        (another strand beside a cable, the other side of a hollow a flat pad bridges); 0.0
+        with one region.
+    others_tactels : int
+        Number of those tactels.
     """
 
     in_contact: bool
@@ -159,6 +165,8 @@ class ContactFeatures:
     invalid_tactels: int = 0
     pad: PadGeometry = field(default=_DEFAULT_PAD)
     image: np.ndarray | None = field(default=None, repr=False, compare=False)
+    others_force: float = 0.0
+    others_tactels: int = 0
 
     @property
     def cop(self) -> np.ndarray:
@@ -364,7 +372,8 @@ def extract(
     # in_contact, force, area, pressure, cop_px, orientation, method, mask, invalid_tactels, pad,
     # image: positional, a third cheaper than by keyword, once per cycle
     pressure = f / (area * pitch * pitch) if near_px is None or loaded == area else load / (loaded * pitch * pitch)
-    return ContactFeatures(True, f, area, pressure, np.array((cx, cy)), angle, method, mask, n_bad, pad, img)
+    return ContactFeatures(True, f, area, pressure, np.array((cx, cy)), angle, method, mask, n_bad, pad, img,
+                           max(load - f, 0.0) if loaded > area else 0.0, loaded - area)
 
 
 def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:
