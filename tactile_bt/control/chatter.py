@@ -62,12 +62,13 @@ class ChatterDamper:
         self._since = [math.inf] * self.n  # time since the last large sign change (s)
         self.counted = 0
 
-    def apply(self, u: list[float], dt: float) -> list[float]:
-        """The damped outputs of one cycle for the PID outputs ``u``."""
+    def apply(self, u: list[float], dt: float, active: Sequence[int] | None = None) -> list[float]:
+        """The damped outputs of one cycle for the PID outputs ``u``; only the components
+        ``active`` (indices; all by default) are looked at, the others pass unchanged."""
         level, previous, outputs, jumps, since = self.level, self._u, self._y, self.jumps, self._since
         decay = dt / self.recover_s
         out = list(u)
-        for i in range(self.n):
+        for i in range(self.n) if active is None else active:
             v, p = u[i], previous[i]
             c = level[i]
             since[i] += dt

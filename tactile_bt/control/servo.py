@@ -221,13 +221,15 @@ class PID:
         """The integral ∫e dt per component (error unit · s)."""
         return np.array(self._integral)
 
-    def update(self, error, dt: float) -> list[float]:
-        """Advance by ``dt`` seconds with ``error`` (sequence of n floats); return ``u`` (list)."""
+    def update(self, error, dt: float, active: Sequence[int] | None = None) -> list[float]:
+        """Advance by ``dt`` seconds with ``error`` (sequence of n floats); return ``u`` (list).
+        Only the components ``active`` (indices; all by default) advance: the others keep
+        their state and command nothing, as for a NaN error."""
         n = self.n
         u = [0.0] * n
         kp, ki_, kd, limits, imaxes = self.kp, self.ki, self.kd, self.output_limit, self._imax
         integrals, previous = self._integral, self._previous
-        for i in range(n):
+        for i in range(n) if active is None else active:
             e = float(error[i])
             if e != e:  # NaN: hold the state, command nothing
                 continue

@@ -333,7 +333,8 @@ class ServoLeaf(TactileBehaviour):
             self._inside_since = None
             self.feedback_message = "no contact" if not f.in_contact else "feature undefined"
             return _RUNNING
-        u = self.damper.apply(self.pid.update(error, self.dt), self.dt)  # idle components: u = 0
+        active = self._active  # idle components: error NaN, u = 0, so only these are advanced
+        u = self.damper.apply(self.pid.update(error, self.dt, active), self.dt, active)
         twist = [0.0] * 6
         for j, r, coefficient in self._terms:
             twist[r] += coefficient * u[j]
