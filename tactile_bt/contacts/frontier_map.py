@@ -20,7 +20,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "EXPLAINING", "sector", "describe_left"]
+__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "EXPLAINING", "sector", "describe_left"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -35,7 +35,11 @@ GAP = "gap"
 #: re-approach found it so). Every other reason (an edge, a
 #: stall, a jump, a lost contact, a target not reached in time, or no attempt at all) leaves that
 #: frontier unexplained: the surface beyond may go on.
-EXPLAINING = frozenset({"table", "tilt", "reach"})
+EXPLAINING = frozenset({"table", "tilt", "reach", "valley"})
+#: The reason of a frontier cell where an attempt failed (a stall, a lost contact, ...) at the rim
+#: of a *valley*: an untouched hole in the touched area, enclosed by it and narrower than the pad
+#: (:meth:`FrontierMap.valleys`), which a flat pad bridges.
+VALLEY = "valley"
 #: :meth:`FrontierMap.face_going_on` compares a frontier cell's mean normal with that of the cell
 #: this far inwards (m), and takes the surface for a plane face when they differ by at most
 #: ``FACE_TURN_RAD``: a radius of curvature above about 115 mm, more than the pad's 80 mm.
@@ -216,15 +220,39 @@ class FrontierMap:
             self.cause[rr, cc, k % SECTORS] = c
         return int(self.blocked[rr, cc, s].sum()) - before
 
-    def classify(self, max_tilt_rad: float, table_z_m: float = math.nan, table_clearance_m: float = 0.0
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def valleys(self, max_width_m: float) -> np.ndarray:
+        """``(n, n)`` bool: the untouched cells of holes in the touched area, enclosed by it (not
+        connected to the untouched surroundings) and at most ``max_width_m`` across their
+        narrower side (of their bounding box in the grid): hollows a flat pad of that width
+        bridges."""
+        out = np.zeros((self.n, self.n), dtype=bool)
+        w = self._window()
+        t = self._touched(self.count[w])
+        if max_width_m <= 0 or not t.any():
+            return out
+        holes, n = ndimage.label(~t)
+        if not n:
+            return out
+        outside = np.unique(np.concatenate((holes[0], holes[-1], holes[:, 0], holes[:, -1])))
+        keep = np.zeros(n + 1, dtype=bool)
+        for k, box in enumerate(ndimage.find_objects(holes), start=1):
+            if box is not None and k not in outside:
+                height, width = (sl.stop - sl.start for sl in box)
+                keep[k] = min(height, width) * self.cell_m <= max_width_m
+        out[w] = keep[holes]
+        return out
+
+    def classify(self, max_tilt_rad: float, table_z_m: float = math.nan, table_clearance_m: float = 0.0,
+                 valley_m: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Rows, columns, outward directions ``(k, 2)`` and reasons ``(k,)`` (str) of the
         frontier cells. The reason is "table" where the highest sample of the cell lies within
         ``table_clearance_m`` of the table (``table_z_m``, world z; NaN: no table): the object's
         foot; "tilt" where the touched surface is tilted more than ``max_tilt_rad`` from the
         vertical; the cause of the block in the outward direction where an attempt to cross it
-        has failed; :data:`GAP` in the cells that count as touched without a sample of their own
-        (between samples, see :attr:`touched`); :data:`OPEN` ("") where the frontier is still to be crossed."""
+        has failed, or :data:`VALLEY` where that attempt faced a hole of the touched area at most
+        ``valley_m`` across (:meth:`valleys`; 0: none); :data:`GAP` in the cells that count as
+        touched without a sample of their own (between samples, see :attr:`touched`);
+        :data:`OPEN` ("") where the frontier is still to be crossed."""
         rows, cols, out = self.frontier()
         reason = np.full(len(rows), OPEN, dtype=object)
         if not len(rows):
@@ -233,6 +261,11 @@ class FrontierMap:
         blocked = self.blocked[rows, cols, sector(out)]
         names = np.array(self.causes + [OPEN], dtype=object)
         reason[blocked] = names[c[blocked]]
+        if valley_m > 0 and blocked.any():
+            rim = ndimage.binary_dilation(self.valleys(valley_m), structure=np.ones((3, 3), dtype=bool))
+            facing = rim[rows, cols] & blocked  # a neighbour of the cell lies in the valley
+            failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
+            reason[facing & failed] = VALLEY
         reason[self.tilt(rows, cols) > max_tilt_rad] = "tilt"
         if math.isfinite(table_z_m):
             reason[self.z_max[rows, cols] <= table_z_m + table_clearance_m] = "table"

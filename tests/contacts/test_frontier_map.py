@@ -129,3 +129,26 @@ def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it()
     m, rows, cols, out = _left_near_table(*_side(rounded))
     assert not np.any(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
     assert m.untouched_below(rows, cols, out, 0.0, math.radians(65)) == 0.0
+
+
+def test_a_stall_at_the_rim_of_a_hollow_narrower_than_the_pad_is_a_valley_but_not_at_the_outer_rim():
+    # a touched disc 60 mm across with an untouched hollow 12 mm across in it (a dent the flat pad
+    # bridged); attempts stalled at the hollow's rim and at the disc's outer rim
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)
+    pts, normals = disc(0.03, step=0.0005)
+    hollow = np.linalg.norm(pts[:, :2] - (0.01, 0.0), axis=1) < 0.006
+    m.add(pts[~hollow], normals[~hollow])
+    valleys = m.valleys(0.08)
+    assert valleys.any() and not m.valleys(0.008).any()  # 12 mm across: bridged by 80 mm, not by 8 mm
+    assert np.all(np.linalg.norm(m.centre_of(*np.nonzero(valleys)) - (0.01, 0.0), axis=1) < 0.008)
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        d = (math.cos(angle), math.sin(angle))
+        m.block((0.01, 0.0), 0.01, d, cause="stall")  # round the hollow
+        m.block((0.03 * d[0], 0.03 * d[1]), 0.004, d, cause="stall")  # and on the outer rim
+    rows, cols, out, reason = m.classify(math.radians(60), valley_m=0.08)
+    near = np.linalg.norm(m.centre_of(rows, cols) - (0.01, 0.0), axis=1) < 0.01
+    assert np.all((reason[near] == "valley") | (reason[near] == GAP)) and np.sum(reason[near] == "valley") > 10
+    outer = np.linalg.norm(m.centre_of(rows, cols), axis=1) > 0.026
+    assert np.any(reason[outer] == "stall") and not np.any(reason[outer] == "valley")
+    # without the pad's width, nothing is a valley
+    assert not np.any(m.classify(math.radians(60))[3] == "valley")

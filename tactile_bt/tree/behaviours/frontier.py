@@ -28,7 +28,8 @@ When no reachable frontier is left, the leaf sums the frontier left by reason
 (:meth:`FrontierGuidance.frontier_left`, also on ``/scan/frontier_left`` for the report and for
 ``coverage_stalled``): the object's foot at the table and a surface steeper than the tilt limit
 explain it; an edge, a stall, a jump, a lost contact or a target not reached in time do not
-(the surface beyond may go on), except that a stall, a lost contact or a target not reached
+(the surface beyond may go on), except at the rim of a hollow in the touched area narrower
+than the pad (a valley it bridges), and except that a stall, a lost contact or a target not reached
 while the arm held a joint at its position limit (within the last second, from
 ``/robot/joints_held``, :data:`tactile_bt.tree.blackboard.JOINTS_HELD`) is the arm's reach,
 which does. It succeeds only when at most ``max_unexplained_m`` is left

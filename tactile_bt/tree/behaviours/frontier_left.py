@@ -3,8 +3,10 @@
 
 At every choice of a target the planner classifies its frontier
 (:meth:`tactile_bt.contacts.frontier_map.FrontierMap.classify`) and sums it by reason: the
-object's foot at the table, a surface steeper than the tilt limit and a place the arm could not
-reach explain it (:data:`~tactile_bt.contacts.frontier_map.EXPLAINING`); a stall, a jump, a lost
+object's foot at the table, a surface steeper than the tilt limit, a place the arm could not
+reach and the rim of a hollow narrower than the pad where an attempt failed (a valley the flat
+pad bridges; its area counts as untouched in the estimated coverage) explain it
+(:data:`~tactile_bt.contacts.frontier_map.EXPLAINING`); a stall, a jump, a lost
 contact, a target not reached in time or an untried frontier do not. It writes the sums to
 ``/scan/frontier_left`` for ``coverage_stalled`` and the report, with an estimate of the area
 left between the table and the frontier the table explains, where that frontier lies on a
@@ -24,7 +26,7 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
@@ -66,7 +68,8 @@ class FrontierLeft:
     def _classify(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Rows, columns, outward directions and reasons of the frontier cells (see
         :meth:`FrontierMap.classify`; :data:`OPEN` for the reachable, unblocked ones)."""
-        return self.map.classify(self.max_tilt_rad - self.tilt_margin_rad, self.table_z_m, self.table_clearance_m)
+        return self.map.classify(self.max_tilt_rad - self.tilt_margin_rad, self.table_z_m, self.table_clearance_m,
+                                 min(self.pad.size_m))
 
     def _candidates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rows, columns and outward directions of the reachable, unblocked frontier cells."""
@@ -81,6 +84,8 @@ class FrontierLeft:
         face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
+        if np.any(reason == VALLEY):  # the valleys a flat pad bridges stay untouched: they count
+            below += float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below) if touched > 0 else 0.0
         self.below_m2 = below
