@@ -684,7 +684,7 @@ def test_the_table_does_not_excuse_a_plane_face_left_above_it():
     normals = np.tile((-math.sin(slope), 0.0, math.cos(slope)), (len(pts), 1))
     leaf, status = _all_frontier_at_the_table((pts, normals), (0.03, 0.0, 0.03))
     assert status == Status.FAILURE
-    assert "plane faces" in leaf.feedback_message and "untouched near the table" in leaf.feedback_message
+    assert "plane faces" in leaf.feedback_message and "near the table below" in leaf.feedback_message
     assert leaf.frontier_left()["estimated_coverage"] < 0.95
 
 

@@ -473,9 +473,12 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                     counts = f"{self.attempts} targets, {self.blocks} ends of the surface{explained}"
                     left = describe_left(self.frontier_left())
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
+                        where = [f"{self.below_m2 * 1e4:.1f} cm² near the table below {self.face_left()}"] \
+                            if self.below_m2 > 0 else []
+                        if self.valley_m2 > 0:
+                            where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
                         self.feedback_message = (f"no reachable frontier left, but about {100 * (1 - self.coverage):.0f} % "
-                                                 f"of the surface untouched near the table ({self.below_m2 * 1e4:.1f} cm² "
-                                                 f"below {self.face_left()}; {left}) ({counts})")
+                                                 f"of the surface untouched ({'; '.join(where)}; {left}) ({counts})")
                         return self._verdict()
                     if self.unexplained_m() > self.max_unexplained_m:
                         job = self._reapproach(point)

@@ -39,7 +39,10 @@ FRONTIER_LEFT_KEY = "/scan/frontier_left"
 
 class FrontierLeft:
     """The frontier left and the re-approaches of a frontier planner (a mixin; the planner has
-    ``map``, ``plan``, ``left``, ``coverage``, ``below_m2`` and its table and tilt settings)."""
+    ``map``, ``plan``, ``left``, ``coverage``, ``below_m2``, ``valley_m2`` and its table and tilt
+    settings)."""
+
+    valley_m2 = 0.0
 
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE,
                                   doc="When no reachable frontier is left, the leaf succeeds only if at most this much "
@@ -84,11 +87,14 @@ class FrontierLeft:
         face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
-        if np.any(reason == VALLEY):  # the valleys a flat pad bridges stay untouched: they count
-            below += float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2
+        # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
+        # may be partly the table seen through a ring: the estimate errs towards failing)
+        valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
+            if np.any(reason == VALLEY) else 0.0
         touched = self.map.touched_area()
-        self.coverage = touched / (touched + below) if touched > 0 else 0.0
+        self.coverage = touched / (touched + below + valley) if touched > 0 else 0.0
         self.below_m2 = below
+        self.valley_m2 = valley
         write(FRONTIER_LEFT_KEY, self.frontier_left())
         ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
@@ -102,7 +108,8 @@ class FrontierLeft:
         that frontier lies (``near_table``, :meth:`face_left`)."""
         return {"explained": {k: v for k, v in self.left.items() if k in EXPLAINING},
                 "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING},
-                "untouched_near_table_m2": self.below_m2, "estimated_coverage": self.coverage,
+                "untouched_near_table_m2": self.below_m2, "untouched_in_valleys_m2": self.valley_m2,
+                "estimated_coverage": self.coverage,
                 "near_table": self.face_left()}
 
     def face_left(self) -> str:
