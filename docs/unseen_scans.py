@@ -1,0 +1,116 @@
+"""The object scan on objects that are not shipped: other sizes, poses, stiffnesses and shapes of
+the kinds the shipped scan scenes have, built in a temporary directory and judged as
+``docs/exploration_scenes.py`` judges the shipped ones (true success, honest failure or FALSE
+SUCCESS, and the force bounds).
+
+    python docs/unseen_scans.py                 # seed 0, every object
+    python docs/unseen_scans.py --seeds 0 1 --only lumpy_soft torus_wide
+
+The tree never sees these scenes when it is tuned: they stand in for a user's own objects. Each
+is on the table with the LWR 4's base 0.39 m behind and 0.13 m above the pad's start, 3 mm above
+the object's top, as in the shipped scan scenes, and the region is that of its kind (the top
+face within 10° for a box, the upper side within 60° otherwise). The lumpy meshes are made as
+``sim/meshes/make_scan_stone.py`` makes the stone, with other sizes and bumps (another seed).
+The exit status is 1 when any row is a false success or fails on force.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import math
+import sys
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import exploration_scenes  # noqa: E402  (docs/exploration_scenes.py, beside this file)
+
+#: name -> (description, top height (m), region's largest angle (deg), objects YAML, pad start x (m)).
+#: A lumpy mesh's top is known only once it is made: its entry gives the mesh's name instead.
+OBJECTS = {
+    "box_small": ("box 80 × 60 × 30 mm (smaller than the pad), 5e4 N/m, turned 60°", 0.03, 10,
+                  "  - {type: box, size: [0.08, 0.06, 0.03], position: [0, 0, 0.015], rpy_deg: [0, 0, 60], "
+                  "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
+    "capsule_thin": ("capsule 50 mm across, 170 mm long, 5e4 N/m, turned −40°", 0.05, 60,
+                     "  - {type: capsule, radius: 0.025, length: 0.12, position: [0, 0, 0.025], rpy_deg: [0, 0, -40], "
+                     "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
+    "groove_narrow": ("block 140 × 160 × 40 mm with a groove 90 mm wide and 8 mm deep, 1e5 N/m, turned 20°", 0.04, 60,
+                      "  - {type: grooved_block, size: [0.14, 0.16, 0.04], groove_width: 0.09, groove_depth: 0.008, "
+                      "position: [0, 0, 0.02], rpy_deg: [0, 0, 20], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "pyramid_small": ("square pyramid, 120 mm base, faces at 35°, 2e5 N/m, turned 10°",
+                      0.06 * math.tan(math.radians(35)), 60,
+                      "  - {type: pyramid, base: 0.12, slope_deg: 35, position: [0, 0, 0], rpy_deg: [0, 0, 10], "
+                      "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
+    "torus_wide": ("torus 220 mm across, 60 mm tall, its hole 100 mm (wider than the pad), 1e5 N/m", 0.06, 60,
+                   "  - {type: torus, major_radius: 0.08, minor_radius: 0.03, position: [0, 0, 0.03], "
+                   "stiffness: 1.0e5, friction: 0.5}\n", -0.08),
+    "lumpy_soft": ("lumpy mesh 108 × 72 × 29 mm, soft (2e4 N/m), turned −50°", "lumpy_soft", 60,
+                   "  - {type: mesh, path: lumpy_soft.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
+                   "rpy_deg: [0, 0, -50], stiffness: 2.0e4, friction: 0.5}\n", 0.0),
+    "lumpy_big": ("lumpy mesh 159 × 103 × 63 mm, 1e5 N/m, turned 15°", "lumpy_big", 60,
+                  "  - {type: mesh, path: lumpy_big.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
+                  "rpy_deg: [0, 0, 15], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+}
+#: The lumpy meshes: semi-axes (m) and seed of make_scan_stone.py's recipe.
+MESHES = {"lumpy_soft": ((0.054, 0.036, 0.028), 11), "lumpy_big": ((0.075, 0.05, 0.062), 3)}
+#: A scene with a goal of its own, as docs/exploration_scenes.py has for the shipped groove.
+COVERAGE_OF = {"unseen_groove_narrow": 0.90}
+
+
+def _make_mesh(name: str, folder: Path) -> float:
+    """Write the lumpy mesh ``name`` into ``folder``; its top height (m)."""
+    spec = importlib.util.spec_from_file_location("make_scan_stone", ROOT / "sim" / "meshes" / "make_scan_stone.py")
+    recipe = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(recipe)
+    recipe.SEMI_AXES, recipe.SEED = MESHES[name]
+    mesh = recipe.make()
+    mesh.export(folder / f"{name}.ply")
+    return float(mesh.bounds[1][2])
+
+
+def write_scene(name: str, folder: Path) -> Path:
+    """The scene file of the object ``name`` in ``folder``."""
+    description, top, angle, objects, x = OBJECTS[name]
+    if isinstance(top, str):
+        top = _make_mesh(top, folder)
+    z = top + 0.003
+    text = (f"name: unseen_{name}\ndescription: {description}\nrate_hz: 250\nduration_s: 300\nseed: 0\n"
+            f"mount:\n  type: lwr4\n  position: [{x}, 0.0, {z:.4f}]\n  rpy_deg: [180, 0, 180]\n"
+            f"  base: [{x - 0.392:.4f}, 0.0, {z + 0.128:.4f}]\n"
+            f"scan_region: {{normal: [0, 0, 1], max_angle_deg: {angle}}}\nobjects:\n{objects}"
+            f"  - {{type: table, height: 0.0, stiffness: 1.0e6}}\n")
+    path = folder / f"unseen_{name}.yaml"
+    path.write_text(text)
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0], help="seeds of every object (default: 0)")
+    parser.add_argument("--only", nargs="+", default=None, choices=sorted(OBJECTS), metavar="OBJECT",
+                        help=f"only these objects ({', '.join(sorted(OBJECTS))})")
+    parser.add_argument("--workers", type=int, default=2, help="missions run at once (default: 2)")
+    parser.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
+    args = parser.parse_args(argv)
+    exploration_scenes.SCAN_COVERAGE_OF.update(COVERAGE_OF)
+    with tempfile.TemporaryDirectory(prefix="unseen_") as folder:
+        files = [write_scene(name, Path(folder)) for name in (args.only or OBJECTS)]
+        jobs = [("scan", f, seed, None) for f in files for seed in args.seeds]
+        with ProcessPoolExecutor(max_workers=max(args.workers, 1), initializer=exploration_scenes.SCAN_COVERAGE_OF.update,
+                                 initargs=(COVERAGE_OF,)) as pool:
+            rows = list(pool.map(exploration_scenes._job, jobs))
+    for row in rows:
+        row["description"] = OBJECTS[row["scene"].removeprefix("unseen_")][0]
+    print(exploration_scenes.markdown(rows, short=True))
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1, default=float))
+    return 1 if any(r["false_success"] or not r["force_ok"] or r["status"] == "error" for r in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
