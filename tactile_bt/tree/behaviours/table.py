@@ -29,7 +29,7 @@ from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
 
-__all__ = ["TABLE_ALARM_KEY", "TABLE_Z_KEY", "TableClearance", "pad_clearance", "lowest_corner", "table_height", "write_table_height"]
+__all__ = ["TABLE_ALARM_KEY", "TABLE_Z_KEY", "TableClearance", "pad_clearance", "pad_corners", "lowest_corner", "table_height", "write_table_height"]
 
 #: Blackboard key of the table's height (m, world z of its surface; NaN or absent: no table).
 TABLE_Z_KEY = "/setup/table_z_m"
@@ -38,13 +38,19 @@ TABLE_Z_KEY = "/setup/table_z_m"
 TABLE_ALARM_KEY = "/scan/table_alarm"
 
 
-def lowest_corner(pose: np.ndarray, pad: PadGeometry, margin_m: float = 0.0) -> np.ndarray:
-    """The world position (m) of the lowest of the pad's four corners at ``pose`` (``T_gs``),
-    the sensing area grown by ``margin_m`` on every side (the pad's frame around it)."""
+def pad_corners(pad: PadGeometry, margin_m: float = 0.0) -> np.ndarray:
+    """The pad's four corners in the sensor frame, ``(4, 3)`` (m), the sensing area grown by
+    ``margin_m`` on every side (the pad's frame around it)."""
     corners = pad.corners_m()
     if margin_m > 0:
         corners = corners + np.sign(corners) * np.array([margin_m, margin_m, 0.0])
-    world = corners @ pose[:3, :3].T + pose[:3, 3]
+    return corners
+
+
+def lowest_corner(pose: np.ndarray, pad: PadGeometry, margin_m: float = 0.0) -> np.ndarray:
+    """The world position (m) of the lowest of the pad's four corners at ``pose`` (``T_gs``),
+    the sensing area grown by ``margin_m`` on every side (the pad's frame around it)."""
+    world = pad_corners(pad, margin_m) @ pose[:3, :3].T + pose[:3, 3]
     return world[int(np.argmin(world[:, 2]))]
 
 
@@ -190,9 +196,7 @@ class TableClearance(TactileBehaviour):
         twist = self.command.summed()
         v, w = twist[:3], twist[3:]
         pose = self.pose
-        corners = self.pad.corners_m()
-        if self.margin_m > 0:
-            corners = corners + np.sign(corners) * np.array([self.margin_m, self.margin_m, 0.0])
+        corners = pad_corners(self.pad, self.margin_m)
         up = pose[2, :3]  # the world's z in the sensor frame
         floor_rate = -(np.maximum(corners @ up + pose[2, 3] - self.table_z_m
                                   - (self.min_clearance_m + self.brake_margin_m), 0.0)) / self.brake_s
