@@ -55,7 +55,8 @@ class FrontierLeft:
                                  "than 5° over the 10 mm inwards): the face taken to go on down to the table at its "
                                  "slope (0 = no such test). A rounded side steepening towards the table, or an edge "
                                  "the pad rolled over, adds nothing: what lies below is steeper than anything "
-                                 "touched.")
+                                 "touched. The valleys that explain frontier (holes in the touched area narrower than "
+                                 "the pad) add their area.")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
