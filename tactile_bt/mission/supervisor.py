@@ -272,7 +272,7 @@ class Supervisor:
         else:
             self._within(t)
             return self._send(twist_s)
-        return self._send(self._exceeded(limit, value, t, float(twist_s[2])))
+        return self._send(self._exceeded(limit, value, t, float(twist_s[2]), features))
 
     def stop(self) -> np.ndarray:
         """The last command of a mission, on every way out: a zero twist."""
@@ -309,10 +309,13 @@ class Supervisor:
             self._current = None
             self._publish(False, "")
 
-    def _exceeded(self, limit: str, value: float, t: float, tree_vz: float = 0.0) -> np.ndarray:
+    def _exceeded(self, limit: str, value: float, t: float, tree_vz: float = 0.0, features=None) -> np.ndarray:
         """A limit exceeded: retreat, or end the mission once the grace time is over. A tree
         already backing off along the normal faster than the retreat keeps its speed (``tree_vz``,
-        m/s): the supervisor never slows a retreat down."""
+        m/s): the supervisor never slows a retreat down. A contact off the pad's centre (the
+        ``features``' centre of pressure) adds a slide away from it, in the pad's plane, as much
+        faster as the contact is nearer the border: an object pressing on the pad's border may
+        lie beside it, where backing off along the normal alone drags the border along it."""
         unit = _UNITS[limit]
         bound = getattr(self.limits, f"{limit}_limit_{unit.lower()}")
         run = self._current
@@ -332,6 +335,12 @@ class Supervisor:
         retreat = self._retreat.copy()
         if tree_vz < retreat[2]:
             retreat[2] = tree_vz
+        if features is not None and features.in_contact:
+            x, y = features.cop_xy
+            half = 0.5 * min(features.pad.size_m)
+            if math.isfinite(x) and math.isfinite(y) and half > 0:
+                retreat[0] = -x / half * self.limits.retreat_speed_mps
+                retreat[1] = -y / half * self.limits.retreat_speed_mps
         return retreat
 
     def _end(self, why: str) -> None:
