@@ -10,7 +10,9 @@ the mount does, and enforces what no tree may switch off:
 - **force and pressure limits**: while the smoothed pressure or force is above its limit, the
   twist is replaced by a retreat along the pad normal (``-z`` of the sensor frame, whose ``z``
   points towards the object; at ``retreat_speed_mps``, or as fast as the tree itself backs off
-  when that is faster) and the tree is told through the blackboard
+  when that is faster), with a slide in the pad's plane away from a contact off its centre
+  (up to that speed at the border: an object beside the border is left sideways too), and the
+  tree is told through the blackboard
   (:mod:`tactile_bt.tree.behaviours.supervision`); if a limit is still exceeded ``grace_s`` after
   the intervention began, the mission ends with ``failure`` naming the limit. An intervention is
   over once every value has stayed within its limit for ``clear_s``.
@@ -244,9 +246,10 @@ class Supervisor:
         Returns
         -------
         (6,) array
-            ``twist_s`` unchanged within every limit; the retreat ``[0, 0, -v, 0, 0, 0]`` while a
-            force or pressure limit is exceeded (``v`` the retreat speed, or the tree's own
-            ``-vz`` when larger); zero once the supervisor has ended the mission.
+            ``twist_s`` unchanged within every limit; the retreat ``[-v x/h, -v y/h, -v, 0, 0, 0]``
+            while a force or pressure limit is exceeded (``v`` the retreat speed, the normal part
+            the tree's own ``-vz`` when larger; ``(x, y)`` the centre of pressure and ``h`` half the
+            pad's width, m); zero once the supervisor has ended the mission.
         """
         if self._retreated is not None:  # the retreat sent last cycle lasted until now
             self._retreated.retreat_s += t - self._t_prev

@@ -66,6 +66,20 @@ def test_above_the_pressure_limit_it_retreats_along_the_pad_normal_away_from_the
     assert "pressure 4500 Pa above the limit 4000 Pa at 1.00 s" == read_or(REASON)
 
 
+def test_a_contact_at_the_pad_s_border_is_left_sideways_as_well():
+    # the pressure peaks at the pad's corner (+x, -y): an object beside the pad's border there;
+    # the retreat backs off along the normal and slides the pad away from that corner
+    sup = Supervisor(SupervisorLimits(pressure_limit_pa=4000.0, retreat_speed_mps=0.02))
+    corner = make_features(cop_px=(15.0, 0.0), pressure=4500.0, area=3)
+    twist = sup.check(corner, PAD_DOWN, TREE_TWIST, 1.0)
+    x, y = corner.cop_xy
+    assert twist[2] == pytest.approx(-0.02) and not twist[3:].any()
+    assert twist[0] < 0.0 < twist[1]  # away from the contact, in the pad's plane
+    np.testing.assert_allclose(twist[:2], -np.array([x, y]) / 0.04 * 0.02)
+    # a centred contact: the normal alone, as before
+    np.testing.assert_allclose(sup.check(press(4500.0), PAD_DOWN, TREE_TWIST, 1.004)[:3], [0.0, 0.0, -0.02], atol=1e-12)
+
+
 def test_above_the_force_cap_it_retreats_even_at_a_moderate_pressure():
     sup = Supervisor(SupervisorLimits())  # 20 N cap
     features = press(3000.0, area=256)  # 3 kPa over the whole pad: 19.2 N
