@@ -10,8 +10,8 @@ the mount does, and enforces what no tree may switch off:
 - **force and pressure limits**: while the smoothed pressure or force is above its limit, the
   twist is replaced by a retreat along the pad normal (``-z`` of the sensor frame, whose ``z``
   points towards the object; at ``retreat_speed_mps``, or as fast as the tree itself backs off
-  when that is faster), with a slide in the pad's plane away from a contact off its centre
-  (up to that speed at the border: an object beside the border is left sideways too), and the
+  when that is faster), with a slide in the pad's plane away from a single contact off its
+  centre (up to that speed at the border: an object beside the border is left sideways too), and the
   tree is told through the blackboard
   (:mod:`tactile_bt.tree.behaviours.supervision`); if a limit is still exceeded ``grace_s`` after
   the intervention began, the mission ends with ``failure`` naming the limit. An intervention is
@@ -315,10 +315,12 @@ class Supervisor:
     def _exceeded(self, limit: str, value: float, t: float, tree_vz: float = 0.0, features=None) -> np.ndarray:
         """A limit exceeded: retreat, or end the mission once the grace time is over. A tree
         already backing off along the normal faster than the retreat keeps its speed (``tree_vz``,
-        m/s): the supervisor never slows a retreat down. A contact off the pad's centre (the
-        ``features``' centre of pressure) adds a slide away from it, in the pad's plane, as much
-        faster as the contact is nearer the border: an object pressing on the pad's border may
-        lie beside it, where backing off along the normal alone drags the border along it."""
+        m/s): the supervisor never slows a retreat down. A single contact off the pad's centre
+        (the ``features``' centre of pressure, no other region) adds a slide away from it, in the
+        pad's plane, as much faster as the contact is nearer the border: an object pressing on
+        the pad's border may lie beside it, where backing off along the normal alone drags the
+        border along it. With contacts on both sides (a pad bridging a groove) sliding away from
+        one presses the other: the retreat is along the normal alone."""
         unit = _UNITS[limit]
         bound = getattr(self.limits, f"{limit}_limit_{unit.lower()}")
         run = self._current
@@ -338,7 +340,7 @@ class Supervisor:
         retreat = self._retreat.copy()
         if tree_vz < retreat[2]:
             retreat[2] = tree_vz
-        if features is not None and features.in_contact:
+        if features is not None and features.in_contact and not features.others_tactels:
             x, y = features.cop_xy
             half = 0.5 * min(features.pad.size_m)
             if math.isfinite(x) and math.isfinite(y) and half > 0:
