@@ -2,6 +2,7 @@
 the pad normal, then failure naming the limit), the live-mission checks (silent sensor, stale
 pose, workspace), its limits, and closed-loop missions that press too hard."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +79,10 @@ def test_a_contact_at_the_pad_s_border_is_left_sideways_as_well():
     np.testing.assert_allclose(twist[:2], -np.array([x, y]) / 0.04 * 0.02)
     # a centred contact: the normal alone, as before
     np.testing.assert_allclose(sup.check(press(4500.0), PAD_DOWN, TREE_TWIST, 1.004)[:3], [0.0, 0.0, -0.02], atol=1e-12)
+    # a second region on the other side (a groove the pad bridges): sliding would press it, so
+    # the normal alone
+    bridged = dataclasses.replace(corner, others_force=0.5, others_tactels=3)
+    np.testing.assert_allclose(sup.check(bridged, PAD_DOWN, TREE_TWIST, 1.008)[:3], [0.0, 0.0, -0.02], atol=1e-12)
 
 
 def test_above_the_force_cap_it_retreats_even_at_a_moderate_pressure():
