@@ -342,13 +342,15 @@ class FrontierMap:
             return flat & (n[:, 2] > math.cos(steep_rad)) & reached
 
     def untouched_below(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, table_z_m: float,
-                        steep_rad: float, reach_m: float = math.inf) -> float:
+                        steep_rad: float, reach_m: float = math.inf, face: np.ndarray | None = None) -> float:
         """Estimated area (m², in the table plane) of the surface left between the frontier
         cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
-        a plane face goes on down to it (:meth:`face_going_on`): the untouched cells within the
-        run down to the table at the face's tilt, ``(z - table) / tan(tilt)``, outwards of each
-        such cell, each counted once."""
-        face = self.face_going_on(rows, cols, out, steep_rad, table_z_m, reach_m)
+        a plane face goes on down to it (:meth:`face_going_on`, or ``face``, its result for these
+        cells when the caller has it already): the untouched cells within the run down to the
+        table at the face's tilt, ``(z - table) / tan(tilt)``, outwards of each such cell, each
+        counted once."""
+        if face is None:
+            face = self.face_going_on(rows, cols, out, steep_rad, table_z_m, reach_m)
         if not np.any(face):
             return 0.0
         rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]

@@ -84,8 +84,8 @@ class FrontierLeft:
         band = reason == "table"
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
-        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach)
         face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
+        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
