@@ -90,8 +90,7 @@ def write_cycle(t: float, pose: np.ndarray, features_raw, features) -> None:
 def write_joints_held(saturated) -> None:
     """Put the joints held at a position limit in the last cycle on :data:`JOINTS_HELD`, from
     the arm's per-joint flags (``saturated``: one bool per joint)."""
-    held = tuple(i + 1 for i, s in enumerate(saturated) if s) if saturated is not None else _NONE_HELD
-    _STORAGE[JOINTS_HELD] = held or _NONE_HELD
+    _STORAGE[JOINTS_HELD] = tuple(i + 1 for i, s in enumerate(saturated) if s) if saturated is not None else _NONE_HELD
 
 
 def joints_held() -> tuple:

@@ -84,7 +84,8 @@ class ContactStiffness:
     give_m : float
         What that contact could give (m), as given when it began.
     indentation_m : float
-        The pad's travel along its normal since the contact under way began (m).
+        The travel along the pad's normal of the pad's point at the contact since the contact
+        under way began (m).
     contact_give_m : float
         What the contact under way can give (m), as given when it began.
     loading : bool
@@ -198,11 +199,8 @@ class AdaptForceTarget(TactileBehaviour):
         for k in (self.key, self.estimate_key):
             self._writer.register_key(key=k, access=Access.WRITE)
         self._writer.register_key(key=self.table_key, access=Access.READ)
-        self.estimator = ContactStiffness(self.min_travel_m, self.min_rise_pa)
-        self.target = self.lowest_target_pa = self.target_pa
         self.table_z_m = math.nan
-        write(self.key, self.target)
-        write(self.estimate_key, math.nan)
+        self._restart()
 
     def parameters_changed(self, changed: frozenset[str]) -> None:
         if changed & {"floor_pa", "target_pa"} and not self.floor_pa <= self.target_pa:
@@ -215,6 +213,11 @@ class AdaptForceTarget(TactileBehaviour):
 
     def initialise(self) -> None:
         self.table_z_m = table_height(self._writer, self.table_key)
+        self._restart()
+
+    def _restart(self) -> None:
+        """No estimate, the tree's target (written at once: ``force_hold`` may read the key
+        before this leaf's first tick)."""
         self.estimator = ContactStiffness(self.min_travel_m, self.min_rise_pa)
         self.target = self.lowest_target_pa = self.target_pa
         write(self.key, self.target)
