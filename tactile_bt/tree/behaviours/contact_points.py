@@ -82,22 +82,15 @@ def _dilated(mask: np.ndarray) -> np.ndarray:
     return region
 
 
-def other_contact(features, threshold_n: float | None = None) -> tuple[float, int]:
+def other_contact(features) -> tuple[float, int]:
     """Force (N) and tactels of the contact outside the largest region and its fringe: a second
-    contact, such as the other border of a flat pad bridging a hollow. ``(0.0, 0)`` without
-    contact. With ``threshold_n`` None, the figures extraction found at its own threshold
-    (``features.others_force``, ``features.others_tactels``: with 8-connected regions no tactel
-    above the threshold touches the largest region, so its fringe holds none); with a
-    threshold (N per tactel), counted anew on ``features.image`` (``(0.0, 0)`` without one)."""
-    if not features.in_contact:
+    contact, such as the other border of a flat pad bridging a hollow; ``(0.0, 0)`` without one.
+    The figures extraction found at its own threshold (``features.others_force``,
+    ``features.others_tactels``): with 8-connected regions no tactel above the threshold touches
+    the largest region, so its fringe holds none."""
+    if not features.in_contact or features.others_tactels <= 0:
         return 0.0, 0
-    if threshold_n is None:
-        return (features.others_force, features.others_tactels) if features.others_tactels > 0 else (0.0, 0)
-    image = features.image
-    if image is None:
-        return 0.0, 0
-    outside = image[(image > threshold_n) & ~_dilated(features.mask)]
-    return (float(outside.sum()), int(outside.size)) if outside.size else (0.0, 0)
+    return features.others_force, features.others_tactels
 
 
 def _percentile(values: np.ndarray, q: float) -> float:
