@@ -181,9 +181,15 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=max(args.workers, 1)) as pool:
         rows = list(pool.map(_job, jobs))
     rows.sort(key=lambda r: (r["kind"], r["scene"], r["seed"]))
-    print(markdown(rows, short=args.short))
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1, default=float))
+    return finish(rows, args.short, args.json)
+
+
+def finish(rows: list[dict], short: bool, json_path: Path | None) -> int:
+    """Print the table of ``rows``, write them to ``json_path`` (if any) and return the exit
+    status: 1 when a row is a false success, fails on force or is an error, else 0."""
+    print(markdown(rows, short=short))
+    if json_path:
+        json_path.write_text(json.dumps(rows, indent=1, default=float))
     return 1 if any(r["false_success"] or not r["force_ok"] or r["status"] == "error" for r in rows) else 0
 
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import json
 import math
 import sys
 import tempfile
@@ -97,7 +96,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="missions run at once (default: 2)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
     args = parser.parse_args(argv)
-    exploration_scenes.SCAN_COVERAGE_OF.update(COVERAGE_OF)
     with tempfile.TemporaryDirectory(prefix="unseen_") as folder:
         files = [write_scene(name, Path(folder)) for name in (args.only or OBJECTS)]
         jobs = [("scan", f, seed, None) for f in files for seed in args.seeds]
@@ -106,10 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             rows = list(pool.map(exploration_scenes._job, jobs))
     for row in rows:
         row["description"] = OBJECTS[row["scene"].removeprefix("unseen_")][0]
-    print(exploration_scenes.markdown(rows, short=True))
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1, default=float))
-    return 1 if any(r["false_success"] or not r["force_ok"] or r["status"] == "error" for r in rows) else 0
+    return exploration_scenes.finish(rows, True, args.json)
 
 
 if __name__ == "__main__":
