@@ -214,6 +214,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         if cloud is not self._map_cloud:  # another mission's cloud: start again
             self.map, self._map_cloud, self._seen = None, cloud, 0
             self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
+            self.sweeps = None
         n = len(cloud)
         if n > self._seen:
             if self.map is None:
@@ -477,8 +478,14 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                             if self.below_m2 > 0 else []
                         if self.valley_m2 > 0:
                             where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
-                        self.feedback_message = (f"no reachable frontier left, but about {100 * (1 - self.coverage):.0f} % "
-                                                 f"of the surface untouched ({'; '.join(where)}; {left}) ({counts})")
+                        untouched = f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
+                        job = self._foot_sweep(point)
+                        if job is not None:
+                            x, y = job["sweep"]["centre"] * 1e3
+                            self.feedback_message = (f"sweeping the foot of the face at ({x:.0f}, {y:.0f}) mm: "
+                                                     f"{untouched}) ({counts})")
+                            return Status.FAILURE
+                        self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()
                     if self.unexplained_m() > self.max_unexplained_m:
                         job = self._reapproach(point)

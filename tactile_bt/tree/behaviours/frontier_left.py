@@ -26,6 +26,7 @@ import math
 import numpy as np
 from py_trees.common import Status
 
+from tactile_bt.contacts.foot_sweep_plan import FootSweepPlan
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
@@ -43,6 +44,9 @@ class FrontierLeft:
     settings)."""
 
     valley_m2 = 0.0
+    #: The foot sweeps of the scan (:class:`FootSweepPlan`), made at the first.
+    sweeps: FootSweepPlan | None = None
+    face_normals = np.zeros((0, 3))
 
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE,
                                   doc="When no reachable frontier is left, the leaf succeeds only if at most this much "
@@ -67,6 +71,15 @@ class FrontierLeft:
     probe_beyond_m = Parameter(0.02, bound=POSITIVE,
                                doc="A re-approach probes this far beyond the frontier (m); it does not try again "
                                    "within this distance of a frontier tried before.")
+    max_foot_sweeps = Parameter(0, bound=NON_NEGATIVE, unit=None,
+                                doc="Most foot sweeps of one scan (0: none). When the band the table left below plane "
+                                    "faces keeps the estimated coverage under ``min_coverage`` and nothing else is "
+                                    "left, the leaf writes a sweep of the nearest run of foot not swept before to "
+                                    "``reapproach_key`` (``{\"sweep\": ...}``, for ``foot_sweep``) and FAILS, as for a "
+                                    "re-approach.")
+    foot_height_m = Parameter(0.002, bound=POSITIVE,
+                              doc="Height (m) above the table of the level pad sweeping a face's foot: its border "
+                                  "touches the face this high.")
 
 
     def _classify(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -88,6 +101,7 @@ class FrontierLeft:
         below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
+        self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
         # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
         # may be partly the table seen through a ring: the estimate errs towards failing)
         valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
@@ -140,6 +154,23 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
+    def _foot_sweep(self, point: np.ndarray) -> dict | None:
+        """Write a sweep of the nearest run of foot below the frontier the table explains on
+        plane faces, not swept before, to ``reapproach_key`` and return it; None when there is
+        none (or sweeps are off)."""
+        if not self.reapproach_key or not self.max_foot_sweeps or self.below_m2 <= 0:
+            return None
+        if self.sweeps is None:
+            self.sweeps = FootSweepPlan(most=self.max_foot_sweeps)
+        foot_z = self.table_z_m + self.foot_height_m
+        run = self.sweeps.choose(self.face_xy, self.face_z, self.face_normals, foot_z, point[:2])
+        if run is None:
+            return None
+        job = {"sweep": run, "foot_z": foot_z, "top_z": float(np.nanmax(self.map.z_max)),
+               "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
+        write(self.reapproach_key, job)
+        return job
+
     def _verdict(self) -> Status:
         """FAILURE for good (:attr:`feedback_message` says why): written to ``reapproach_key`` as
         ``{"verdict": message}``, on which ``reapproach`` fails at once rather than let a
@@ -154,5 +185,9 @@ class FrontierLeft:
         if self.map is None or not isinstance(job, dict) or "result" not in job or job.get("applied"):
             return
         job["applied"] = True
+        if "sweep" in job:
+            self.sweeps.results.append(str(job["result"]))
+            self.ends[f"foot sweep: {job['result']}"] += 1
+            return
         result = self.plan.apply(self.map, job)
         self.ends[f"re-approach: {result}"] += 1

@@ -128,20 +128,31 @@ class Reapproach(TactileBehaviour):
         point = self._clear_of_the_table(point, normal, R)
         if point is None:
             return False
+        self._route(point + normal * self.standoff_m, R, top_z)
+        return True
+
+    def _route(self, standoff: np.ndarray, R: np.ndarray, top_z: float) -> None:
+        """Waypoints from the pad's pose to the pose ``(standoff, R)`` (world): lift off along
+        the normal (when in contact), rise to ``clearance_m`` above ``top_z`` (the highest touched point) unless
+        its lowest corner is that high already, move over, turning, and lower."""
+        T = self.pose
         half_diagonal = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m
-        lifted = T[:3, 3] - T[:3, 2] * self.lift_m
+        # lift off a contact; a pad in the air (a move cut short at the arm's reach) rises at once
+        lifted = T[:3, 3] - T[:3, 2] * self.lift_m if self.features.in_contact else T[:3, 3].copy()
         tilt_now = math.sqrt(max(0.0, 1.0 - T[2, 2] ** 2))
         tilt_new = math.sqrt(max(0.0, 1.0 - R[2, 2] ** 2))
         safe = top_z + self.clearance_m + half_diagonal * max(tilt_now, tilt_new)
-        standoff = point + normal * self.standoff_m
+        # a pad in the air already clear of everything touched moves over at once: rising from
+        # a move the arm could not finish may be out of its reach too
+        above = lowest_corner(T, self.pad, self.corner_margin_m)[2] >= top_z + self.clearance_m
+        risen = lifted if above else np.array([lifted[0], lifted[1], max(safe, lifted[2])])
         self._waypoints = [(lifted, T[:3, :3].copy(), "lifting off"),
-                           (np.array([lifted[0], lifted[1], max(safe, lifted[2])]), T[:3, :3].copy(), "rising"),
+                           (risen, T[:3, :3].copy(), "rising"),
                            (np.array([standoff[0], standoff[1], max(safe, standoff[2])]), R, "moving over"),
                            (standoff, R, "lowering to the standoff")]
         self._deadline = self.now + self.move_s
         self._progress = (math.inf, self.now)
         self._approached = 0.0
-        return True
 
     def _clear_of_the_table(self, point: np.ndarray, normal: np.ndarray, R: np.ndarray) -> np.ndarray | None:
         """Where to centre the pad (world) to touch ``point``: the point itself, or, where the
