@@ -37,7 +37,7 @@ from scipy.spatial.transform import Rotation
 from py_trees.common import Status
 
 from tactile_bt.tree.behaviours.contact_points import imprint_points
-from tactile_bt.tree.behaviours.reapproach import _STUCK_S, Reapproach
+from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.blackboard import TIME, read, read_or
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import POSITIVE
@@ -83,7 +83,7 @@ class FootSweep(Reapproach):
     sweep_speed_mps = Parameter(0.015, bound=POSITIVE, doc="Speed along the foot (m/s).")
     sweep_pressure_pa = Parameter(1000.0, bound=POSITIVE,
                                   doc="Pressure the border row is held at while sweeping (Pa).")
-    kp = Parameter(1.0e-5, bound=POSITIVE,
+    kp = Parameter(1.0e-5, bound=POSITIVE, unit="m/s/Pa",
                    doc="Gain of the pad's speed towards the face on the pressure error (m/s per Pa).")
     max_press_mps = Parameter(0.01, bound=POSITIVE, doc="Largest speed towards or away from the face (m/s).")
     lost_s = Parameter(0.5, bound=POSITIVE, doc="The face has ended under the border after this long without contact (s).")
@@ -158,7 +158,7 @@ class FootSweep(Reapproach):
                 self._waypoints.pop(0)
                 self._deadline = self.now + self.move_s
                 self._progress = (math.inf, self.now)
-            elif self.now > self._deadline or self.now - self._progress[1] > _STUCK_S:
+            elif self._out_of_reach():
                 self._finish("reach")
             return Status.RUNNING
         if not self._sweeping:

@@ -222,7 +222,7 @@ class Reapproach(TactileBehaviour):
                 self._waypoints.pop(0)
                 self._deadline = self.now + self.move_s
                 self._progress = (math.inf, self.now)
-            elif self.now > self._deadline or self.now - self._progress[1] > _STUCK_S:
+            elif self._out_of_reach():
                 self._finish("reach")
             self._phase = phase
         elif not self._done:
@@ -251,6 +251,10 @@ class Reapproach(TactileBehaviour):
         if not math.isfinite(self._table_z):
             return False
         return lowest_corner(self.pose, self.pad, self.corner_margin_m)[2] < self._table_z + self.table_clearance_m
+
+    def _out_of_reach(self) -> bool:
+        """Whether the current move has run out of time or come no nearer for ``_STUCK_S``."""
+        return self.now > self._deadline or self.now - self._progress[1] > _STUCK_S
 
     def _move(self, position: np.ndarray, R: np.ndarray) -> bool:
         """Command the twist towards the pose ``(position, R)`` (world); True once there."""

@@ -1,0 +1,76 @@
+"""Runs of foot below the frontier the table explains on plane faces, and the sweeps chosen."""
+
+import math
+
+import numpy as np
+import numpy.testing as npt
+
+from tactile_bt.contacts.foot_sweep_plan import FootSweepPlan, foot_runs
+
+SLOPE = math.radians(40)
+
+
+def face_cells(rng, yaw_deg, half=0.08, count=40, corner=0):
+    """Frontier cells 4–14 mm up a 40° face of a square pyramid (base ``2 half``) turned
+    ``yaw_deg``, with noisy normals; and ``corner`` stray cells at a ridge."""
+    yaw = math.radians(yaw_deg)
+    out = np.array([math.cos(yaw), math.sin(yaw)])
+    along = np.array([-out[1], out[0]])
+    z = rng.uniform(0.004, 0.014, count)
+    s = np.sort(rng.uniform(-0.05, 0.05, count))
+    xy = out * (half - z[:, None] / math.tan(SLOPE)) + along * s[:, None]
+    n = np.column_stack((out[0] * math.sin(SLOPE) + rng.normal(0, 0.01, count),
+                         out[1] * math.sin(SLOPE) + rng.normal(0, 0.01, count), np.full(count, math.cos(SLOPE))))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    if corner:
+        diagonal = (out + along) / math.sqrt(2)
+        xy = np.vstack((xy, diagonal * half * 1.3 + rng.normal(0, 0.001, (corner, 2))))
+        z = np.concatenate((z, np.full(corner, 0.005)))
+        n = np.vstack((n, np.tile([diagonal[0] * 0.6, diagonal[1] * 0.6, 0.8], (corner, 1))))
+    return xy, z, n, out, along, s
+
+
+def test_a_face_gives_one_run_along_its_foot_at_the_sweeping_height():
+    rng = np.random.default_rng(0)
+    xy, z, n, out, along, s = face_cells(rng, 25)
+    runs = foot_runs(xy, z, n, foot_z=0.002)
+    assert len(runs) == 1
+    run = runs[0]
+    npt.assert_allclose(run["out"], out, atol=0.02)
+    npt.assert_allclose(abs(run["along"] @ along), 1.0, atol=1e-3)
+    # the start lies on the face's foot line at 2 mm: 80 mm out less 2 mm / tan 40°
+    npt.assert_allclose(run["start"] @ out, 0.08 - 0.002 / math.tan(SLOPE), atol=0.001)
+    npt.assert_allclose(run["length_m"], s[-1] - s[0], atol=0.002)
+
+
+def test_a_ridge_s_few_cells_make_no_run_and_two_faces_make_two():
+    rng = np.random.default_rng(1)
+    a = face_cells(rng, 25, corner=3)
+    b = face_cells(rng, 115)
+    runs = foot_runs(np.vstack((a[0], b[0])), np.concatenate((a[1], b[1])), np.vstack((a[2], b[2])), 0.002)
+    assert len(runs) == 2
+    outs = sorted((r["out"] for r in runs), key=lambda o: math.atan2(o[1], o[0]))
+    npt.assert_allclose(outs[0], a[3], atol=0.02)
+    npt.assert_allclose(outs[1], b[3], atol=0.02)
+
+
+def test_a_gap_splits_a_run_and_a_level_surface_has_no_foot():
+    rng = np.random.default_rng(2)
+    xy, z, n, out, along, s = face_cells(rng, 0, count=60)
+    keep = np.abs(s) > 0.02  # a 40 mm gap in the middle
+    assert len(foot_runs(xy[keep], z[keep], n[keep], 0.002)) == 2
+    level = np.tile([0.0, 0.0, 1.0], (len(xy), 1))
+    assert foot_runs(xy, z, level, 0.002) == []
+
+
+def test_the_plan_sweeps_the_nearest_run_once_and_at_most_its_count():
+    rng = np.random.default_rng(3)
+    a, b = face_cells(rng, 0), face_cells(rng, 180)
+    cells = (np.vstack((a[0], b[0])), np.concatenate((a[1], b[1])), np.vstack((a[2], b[2])))
+    plan = FootSweepPlan(most=5)
+    first = plan.choose(*cells, 0.002, from_xy=np.array([-0.1, 0.0]))
+    npt.assert_allclose(first["out"], [-1.0, 0.0], atol=0.02)  # the face nearer (-100, 0) mm
+    second = plan.choose(*cells, 0.002, from_xy=np.array([-0.1, 0.0]))
+    npt.assert_allclose(second["out"], [1.0, 0.0], atol=0.02)
+    assert plan.choose(*cells, 0.002, from_xy=np.zeros(2)) is None
+    assert FootSweepPlan(most=0).choose(*cells, 0.002, from_xy=np.zeros(2)) is None
