@@ -22,7 +22,7 @@ from tactile_bt.tree.behaviours.surface_end import (ContactJumped, ContactShrank
                                                     RollingOverEdge, TiltLimit, Travelled)
 from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
-from tactile_bt.tree.behaviours.foot_sweep import FootSweep
+from tactile_bt.tree.behaviours.border_sweep import BorderSweep
 from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
@@ -52,7 +52,7 @@ LEAVES = {
     "backtrack": Backtrack,
     "frontier_guidance": FrontierGuidance,
     "reapproach": Reapproach,
-    "foot_sweep": FootSweep,
+    "border_sweep": BorderSweep,
     "table_clearance": TableClearance,
     "table_offset": TableOffset,
     "centre_to": CentreTo,
@@ -99,7 +99,7 @@ __all__ = [
     "Backtrack",
     "FrontierGuidance",
     "Reapproach",
-    "FootSweep",
+    "BorderSweep",
     "TableClearance",
     "TableOffset",
     "CentreTo",

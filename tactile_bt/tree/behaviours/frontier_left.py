@@ -26,7 +26,8 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from tactile_bt.contacts.foot_sweep_plan import FootSweepPlan
+from tactile_bt import defaults
+from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
@@ -44,9 +45,10 @@ class FrontierLeft:
     settings)."""
 
     valley_m2 = 0.0
-    #: The foot sweeps of the scan (:class:`FootSweepPlan`), made at the first.
-    sweeps: FootSweepPlan | None = None
+    #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
+    sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
+    valley_mask: np.ndarray | None = None
 
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE,
                                   doc="When no reachable frontier is left, the leaf succeeds only if at most this much "
@@ -60,7 +62,8 @@ class FrontierLeft:
                                  "slope (0 = no such test). A rounded side steepening towards the table, or an edge "
                                  "the pad rolled over, adds nothing: what lies below is steeper than anything "
                                  "touched. The valleys that explain frontier (holes in the touched area narrower than "
-                                 "the pad) add their area.")
+                                 "the pad) add their area. The first 2 mm of the face below the frontier "
+                                 "(``defaults.COVERAGE_RADIUS_M``) count as touched: a contact covers that much.")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
@@ -71,12 +74,12 @@ class FrontierLeft:
     probe_beyond_m = Parameter(0.02, bound=POSITIVE,
                                doc="A re-approach probes this far beyond the frontier (m); it does not try again "
                                    "within this distance of a frontier tried before.")
-    max_foot_sweeps = Parameter(0, bound=NON_NEGATIVE, unit=None,
-                                doc="Most foot sweeps of one scan (0: none). When the band the table left below plane "
-                                    "faces keeps the estimated coverage under ``min_coverage`` and nothing else is "
-                                    "left, the leaf writes a sweep of the nearest run of foot not swept before to "
-                                    "``reapproach_key`` (``{\"sweep\": ...}``, for ``foot_sweep``) and FAILS, as for a "
-                                    "re-approach.")
+    max_sweeps = Parameter(0, bound=NON_NEGATIVE, unit=None,
+                           doc="Most border sweeps of one scan (0: none). When the band the table left below plane "
+                               "faces, or a valley narrower than the pad, keeps the estimated coverage under "
+                               "``min_coverage`` and nothing else is left, the leaf writes a sweep of the nearest run "
+                               "of foot, or else side of a valley, not swept before to ``reapproach_key`` "
+                               "(``{\"sweep\": ...}``, for ``border_sweep``) and FAILS, as for a re-approach.")
     foot_height_m = Parameter(0.002, bound=POSITIVE,
                               doc="Height (m) above the table of the level pad sweeping a face's foot: its border "
                                   "touches the face this high.")
@@ -98,14 +101,15 @@ class FrontierLeft:
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
-        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face)
+        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face,
+                                         defaults.COVERAGE_RADIUS_M)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
         # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
         # may be partly the table seen through a ring: the estimate errs towards failing)
-        valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
-            if np.any(reason == VALLEY) else 0.0
+        self.valley_mask = self.map.valleys(min(self.pad.size_m)) if np.any(reason == VALLEY) else None
+        valley = float(np.count_nonzero(self.valley_mask)) * self.cell_m**2 if self.valley_mask is not None else 0.0
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below + valley) if touched > 0 else 0.0
         self.below_m2 = below
@@ -154,16 +158,20 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
-    def _foot_sweep(self, point: np.ndarray) -> dict | None:
-        """Write a sweep of the nearest run of foot below the frontier the table explains on
-        plane faces, not swept before, to ``reapproach_key`` and return it; None when there is
-        none (or sweeps are off)."""
-        if not self.reapproach_key or not self.max_foot_sweeps or self.below_m2 <= 0:
+    def _sweep(self, point: np.ndarray) -> dict | None:
+        """Write a border sweep to ``reapproach_key`` and return it: of the nearest run of foot
+        below the frontier the table explains on plane faces, or else of the nearest side of a
+        valley, not swept before; None when there is none (or sweeps are off)."""
+        if not self.reapproach_key or not self.max_sweeps or self.map is None:
             return None
         if self.sweeps is None:
-            self.sweeps = FootSweepPlan(most=self.max_foot_sweeps)
+            self.sweeps = SweepPlan(most=self.max_sweeps)
         foot_z = self.table_z_m + self.foot_height_m
-        run = self.sweeps.choose(self.face_xy, self.face_z, self.face_normals, foot_z, point[:2])
+        run = None
+        if self.below_m2 > 0 and math.isfinite(foot_z):
+            run = self.sweeps.choose(foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z), point[:2])
+        if run is None and self.valley_m2 > 0:
+            run = self.sweeps.choose(valley_sides(self.map, self.valley_mask, min(self.pad.size_m)), point[:2])
         if run is None:
             return None
         job = {"sweep": run, "foot_z": foot_z, "top_z": float(np.nanmax(self.map.z_max)),
@@ -187,7 +195,7 @@ class FrontierLeft:
         job["applied"] = True
         if "sweep" in job:
             self.sweeps.results.append(str(job["result"]))
-            self.ends[f"foot sweep: {job['result']}"] += 1
+            self.ends[f"{job['sweep'].get('kind', 'border')} sweep: {job['result']}"] += 1
             return
         result = self.plan.apply(self.map, job)
         self.ends[f"re-approach: {result}"] += 1

@@ -10,8 +10,8 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
-from tactile_bt.tree.behaviours import FootSweep
-from tactile_bt.tree.behaviours.foot_sweep import level_facing
+from tactile_bt.tree.behaviours import BorderSweep
+from tactile_bt.tree.behaviours.border_sweep import level_facing
 
 DOWN = Rotation.from_euler("x", 180, degrees=True)
 
@@ -35,13 +35,13 @@ def test_the_level_pad_faces_the_face_with_the_side_that_turns_it_least(seed):
 
 
 def test_a_probe_job_is_reapproach_s_and_the_leaf_passes_it_by():
-    h = LeafHarness(FootSweep(), pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
+    h = LeafHarness(BorderSweep(), pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
     h.set("/scan/reapproach", {"probe": (np.zeros(3), np.array([0.0, 0.0, 1.0])), "top_z": 0.05,
                                "home": (np.zeros(3), np.array([0.0, 0.0, 1.0]))})
     assert h.tick(make_features()) == Status.SUCCESS
 
 
 def test_the_planner_s_verdict_fails_it_at_once():
-    h = LeafHarness(FootSweep(), pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
+    h = LeafHarness(BorderSweep(), pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
     h.set("/scan/reapproach", {"verdict": "no reachable frontier left, but ..."})
     assert h.tick(make_features()) == Status.FAILURE

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import numpy.testing as npt
 
-from tactile_bt.contacts.foot_sweep_plan import FootSweepPlan, foot_runs
+from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs
 
 SLOPE = math.radians(40)
 
@@ -67,10 +67,11 @@ def test_the_plan_sweeps_the_nearest_run_once_and_at_most_its_count():
     rng = np.random.default_rng(3)
     a, b = face_cells(rng, 0), face_cells(rng, 180)
     cells = (np.vstack((a[0], b[0])), np.concatenate((a[1], b[1])), np.vstack((a[2], b[2])))
-    plan = FootSweepPlan(most=5)
-    first = plan.choose(*cells, 0.002, from_xy=np.array([-0.1, 0.0]))
+    runs = foot_runs(*cells, 0.002)
+    plan = SweepPlan(most=5)
+    first = plan.choose(runs, from_xy=np.array([-0.1, 0.0]))
     npt.assert_allclose(first["out"], [-1.0, 0.0], atol=0.02)  # the face nearer (-100, 0) mm
-    second = plan.choose(*cells, 0.002, from_xy=np.array([-0.1, 0.0]))
+    second = plan.choose(runs, from_xy=np.array([-0.1, 0.0]))
     npt.assert_allclose(second["out"], [1.0, 0.0], atol=0.02)
-    assert plan.choose(*cells, 0.002, from_xy=np.zeros(2)) is None
-    assert FootSweepPlan(most=0).choose(*cells, 0.002, from_xy=np.zeros(2)) is None
+    assert plan.choose(runs, from_xy=np.zeros(2)) is None
+    assert SweepPlan(most=0).choose(runs, from_xy=np.zeros(2)) is None

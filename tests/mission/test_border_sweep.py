@@ -10,10 +10,10 @@ import py_trees
 from py_trees.common import Status
 
 from tactile_bt import run_mission
-from tactile_bt.contacts.foot_sweep_plan import foot_runs
+from tactile_bt.contacts.sweep_plan import foot_runs
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sim.scene import load_scene
-from tactile_bt.tree.behaviours import FootSweep
+from tactile_bt.tree.behaviours import BorderSweep
 from tactile_bt.tree.behaviours.reapproach import REAPPROACH_KEY
 from tactile_bt.tree.behaviours.table import pad_clearance
 
@@ -53,7 +53,7 @@ def _face_job(k):
 
 def test_the_level_pad_touches_the_face_low_along_its_foot_and_goes_home():
     job, out, normal = _face_job(2)  # the face away from the arm
-    sweep = FootSweep()
+    sweep = BorderSweep()
     root = py_trees.composites.Sequence("sweep_the_foot", memory=True, children=[_Ask(job), sweep])
     scene = load_scene(ROOT / "sim" / "scan_pyramid.yaml")
     result = run_mission(py_trees.trees.BehaviourTree(root), scene, duration=60.0)

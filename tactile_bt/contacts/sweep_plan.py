@@ -1,0 +1,204 @@
+"""Where to sweep with the pad's border: the band the table leaves at the foot of a plane face,
+and the sides of a valley narrower than the pad.
+
+A pad lying flat on a face that goes on down to the table stops with its lowest border a few
+millimetres above the table, and the band below stays untouched (the frontier planner estimates
+it, :meth:`~tactile_bt.contacts.frontier_map.FrontierMap.untouched_below`). A level pad held just
+above the table reaches it: slid towards the face, its border touches the face at the pad's own
+height, all four corners equally high. :func:`foot_runs` turns the frontier cells on such faces
+(their centres, heights and mean normals, from the planner) into straight runs of the face's
+foot: the outward horizontal direction of the face, the direction along its foot, where the foot
+lies at the sweeping height and how far it runs.
+
+A flat pad bridges a hollow narrower than itself and leaves its sides untouched
+(:meth:`~tactile_bt.contacts.frontier_map.FrontierMap.valleys`). Tilted about the hollow's
+longer axis, its body over the touched rim and its border row in the hollow, the pad touches
+the side with its border alone. :func:`valley_sides` gives these sweeps, one per side of each
+hollow.
+
+:class:`SweepPlan` remembers the sweeps done, so that each is made once.
+
+Layer: contacts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["SweepPlan", "foot_runs", "valley_sides"]
+
+#: Cells whose outward directions differ by at most this much (rad) belong to one face.
+_SAME_FACE_RAD = math.radians(10.0)
+#: ... and whose foot lines lie at most this far apart (m) across.
+_SAME_LINE_M = 0.006
+#: A run of foot is split where its cells leave a gap longer than this (m).
+_GAP_M = 0.02
+#: A run needs this many cells and this length (m): fewer are a corner's or a ridge's.
+_LEAST_CELLS = 5
+_LEAST_LENGTH_M = 0.01
+#: A face tilted less than this (rad) from the level has no foot to sweep.
+_LEAST_TILT_RAD = math.radians(5.0)
+
+
+def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float) -> list[dict]:
+    """Straight runs of foot below frontier cells on plane faces.
+
+    Parameters
+    ----------
+    xy, z : (k, 2) and (k,) arrays
+        World xy and height of the frontier cells (m).
+    normals : (k, 3) array
+        Their mean outward normals (unit, world).
+    foot_z : float
+        World height (m) at which the foot is followed (the table's plus the sweeping height).
+
+    Returns
+    -------
+    list of dict
+        One per run of at least five cells and 10 mm (fewer are a corner's), longest first: ``out`` (unit world xy, away from the object), ``along``
+        (unit world xy along the foot), ``normal`` (the face's mean outward normal), ``start``
+        (world xy, m, of the foot at ``foot_z`` at the run's first end), ``length_m`` and
+        ``centre`` (world xy of its middle).
+    """
+    xy, z, normals = (np.asarray(a, dtype=float) for a in (xy, z, normals))
+    horizontal = np.linalg.norm(normals[:, :2], axis=1) if len(normals) else np.zeros(0)
+    usable = np.isfinite(horizontal) & (horizontal > math.sin(_LEAST_TILT_RAD)) & np.isfinite(z)
+    xy, z, normals, horizontal = xy[usable], z[usable], normals[usable], horizontal[usable]
+    if not len(xy):
+        return []
+    out = normals[:, :2] / horizontal[:, None]
+    run_down = np.maximum(z - foot_z, 0.0) * normals[:, 2] / horizontal  # (z - foot) / tan(tilt)
+    foot = xy + out * run_down[:, None]
+    free = np.ones(len(xy), dtype=bool)
+    runs: list[dict] = []
+    while np.any(free):
+        seed = int(np.flatnonzero(free)[0])
+        o = out[seed]
+        member = free & (out @ o >= math.cos(_SAME_FACE_RAD)) & (np.abs((foot - foot[seed]) @ o) <= _SAME_LINE_M)
+        free &= ~member
+        idx = np.flatnonzero(member)
+        o = out[idx].mean(axis=0)
+        o /= np.linalg.norm(o)
+        along = np.array([-o[1], o[0]])
+        s = foot[idx] @ along
+        order = np.argsort(s)
+        idx, s = idx[order], s[order]
+        offset = float(np.mean(foot[idx] @ o))
+        normal = normals[idx].mean(axis=0)
+        normal /= np.linalg.norm(normal)
+        cuts = np.flatnonzero(np.diff(s) > _GAP_M) + 1
+        for part in np.split(np.arange(len(idx)), cuts):
+            s0, s1 = float(s[part[0]]), float(s[part[-1]])
+            if len(part) < _LEAST_CELLS or s1 - s0 < _LEAST_LENGTH_M:
+                continue
+            start = o * offset + along * s0
+            runs.append({"kind": "foot", "out": o.copy(), "along": along.copy(), "normal": normal.copy(), "start": start,
+                         "length_m": s1 - s0, "centre": start + along * (s1 - s0) / 2})
+    runs.sort(key=lambda r: -r["length_m"])
+    return runs
+
+
+def valley_sides(m, mask: np.ndarray, pad_width_m: float, step_m: float = 0.003) -> list[dict]:
+    """Sweeps of the sides of the valleys in ``mask`` (the untouched cells of holes narrower
+    than the pad, :meth:`~tactile_bt.contacts.frontier_map.FrontierMap.valleys`), one per side
+    of each hole along its longer axis: a pad tilted about that axis, its body over the touched
+    rim and its border in the hole, sweeps along the hole in passes ``step_m`` apart from the
+    hole's edge to its middle.
+
+    Returns
+    -------
+    list of dict
+        ``kind`` ("valley"), ``out`` (unit world xy from the hole towards this side), ``along``,
+        ``start`` (world xy of the border's line at the hole's edge, at its first end),
+        ``length_m``, ``width_m`` (how far inwards the passes go), ``step_m``, ``rim_z`` (the
+        rim's height there, m), ``depth_m`` (how deep the hole is taken to be under the last
+        pass: half its width, a 45° side), ``tilt_rad`` (the pad's tilt about the axis that
+        clears the touched surface under its body, :func:`_clearing_tilt`), ``normal`` (the
+        rim's mean outward normal), ``centre`` (world xy).
+    """
+    from scipy import ndimage
+
+    holes, count = ndimage.label(mask)
+    sides: list[dict] = []
+    touched = np.isfinite(m.z_max)
+    for k in range(1, count + 1):
+        rows, cols = np.nonzero(holes == k)
+        if len(rows) < 4 * _LEAST_CELLS:
+            continue
+        xy = m.centre_of(rows, cols)
+        mid = xy.mean(axis=0)
+        _, _, axes = np.linalg.svd(xy - mid, full_matrices=False)
+        along, across = axes[0], np.array([-axes[0][1], axes[0][0]])
+        s, c = (xy - mid) @ along, (xy - mid) @ across
+        width = float(c.max() - c.min()) + m.cell_m
+        for sign in (1.0, -1.0):
+            out = across * sign
+            edge = float(max(sign * c)) + m.cell_m / 2  # the hole's border on this side, from mid
+            # the touched cells just outside that border: the rim
+            probe = mid + out * (edge + m.cell_m) + along * np.linspace(s.min(), s.max(), 12)[:, None]
+            rc = m.cell_of(probe)
+            inside = np.all((rc >= 0) & (rc < m.n), axis=1)
+            rc = rc[inside]
+            rim = touched[rc[:, 0], rc[:, 1]]
+            if not np.any(rim):
+                continue
+            rc = rc[rim]
+            normal = np.nanmean(m.mean_normal(rc[:, 0], rc[:, 1]), axis=0)
+            start = mid + out * (edge - 0.001) + along * float(s.min())
+            length = float(s.max() - s.min())
+            rim_z = float(np.max(m.z_max[rc[:, 0], rc[:, 1]]))
+            tilt = _clearing_tilt(m, mid + out * edge, out, along, (s.min(), s.max()), rim_z, width, pad_width_m)
+            sides.append({"kind": "valley", "out": out.copy(), "along": along.copy(), "start": start,
+                          "length_m": length, "width_m": width / 2 + step_m, "step_m": step_m,
+                          "rim_z": rim_z, "depth_m": width / 2, "tilt_rad": tilt,
+                          "normal": normal / np.linalg.norm(normal),
+                          "centre": start + along * length / 2})
+    return sides
+
+
+def _clearing_tilt(m, edge_xy: np.ndarray, out: np.ndarray, along: np.ndarray, span: tuple, rim_z: float,
+                   width: float, pad_width_m: float) -> float:
+    """Tilt (rad) about ``along`` at which a pad whose border lies on the hole's edge line
+    (``edge_xy``, at ``rim_z``) and, for the last pass, half the hole's ``width`` further in and as
+    deep, has its body (towards ``out``, ``pad_width_m`` long) 2 mm above every touched cell
+    under it, plus 5°."""
+    touched = np.isfinite(m.z_max)
+    rows, cols = np.nonzero(touched)
+    xy = m.centre_of(rows, cols)
+    z = m.z_max[rows, cols]
+    s = (xy - edge_xy) @ along
+    slope = 0.0
+    for inward, border_z in ((0.0, rim_z), (width / 2, rim_z - width / 2)):
+        d = (xy - edge_xy) @ out + inward
+        under = (d > m.cell_m) & (d < pad_width_m) & (s > span[0] - pad_width_m / 2) & (s < span[1] + pad_width_m / 2)
+        if np.any(under):
+            slope = max(slope, float(np.max((z[under] + 0.002 - border_z) / d[under])))
+    return math.atan(slope) + math.radians(5.0)
+
+
+class SweepPlan:
+    """The border sweeps of one map: the runs of foot and the valley sides swept so far (one
+    whose middle lies within ``radius_m`` of a swept one's and faces the same way is not swept
+    again) and what each found."""
+
+    def __init__(self, radius_m: float = 0.03, most: int = 12) -> None:
+        self.radius_m = float(radius_m)
+        self.most = int(most)
+        self.swept: list[dict] = []
+        self.results: list[str] = []
+
+    def choose(self, candidates: list[dict], from_xy: np.ndarray) -> dict | None:
+        """The candidate (:func:`foot_runs`, :func:`valley_sides`) nearest to ``from_xy``
+        (world, m) not swept before; None when none is left or ``most`` have been swept."""
+        if len(self.swept) >= self.most:
+            return None
+        fresh = [r for r in candidates if not any(
+            np.linalg.norm(r["centre"] - d["centre"]) <= self.radius_m and r["out"] @ d["out"] >= math.cos(_SAME_FACE_RAD)
+            for d in self.swept)]
+        if not fresh:
+            return None
+        run = min(fresh, key=lambda r: float(np.linalg.norm(r["centre"] - np.asarray(from_xy)[:2])))
+        self.swept.append(run)
+        return run

@@ -1,0 +1,293 @@
+"""Sweep with the border of the pad where its face cannot lie: the foot of a plane face just
+above the table, and the sides of a valley narrower than the pad.
+
+A pad lying on a face that runs down to the table stops with its lowest border above the table
+(``table_clearance`` and the frontier planner see to that), and a band along the foot stays
+untouched: on a 40° face, about 5 mm of it. Held level instead, ``foot_z`` above the table, the
+pad can slide towards the face until its border touches it there, every corner equally far from
+the table. A flat pad bridges a hollow narrower than itself and leaves its sides untouched;
+tilted about the hollow's axis, its body over the touched rim, it can touch them with its border
+row alone. The frontier planner (``frontier_guidance: {max_sweeps: ...}``) writes such a sweep
+to the re-approach key when that band or those hollows are all that keep the scan from its
+coverage, ``{"sweep": run, "foot_z": z, "top_z": z, "home": (point, normal)}`` (a run of foot
+or a valley's side from :mod:`tactile_bt.contacts.sweep_plan`, world, m), and fails for the
+``retry`` to carry it out.
+
+The ``border_sweep`` leaf then lifts the pad off, rises above everything touched, turns the pad
+(level for a foot; for a valley tilted about its axis until the body clears what was touched
+beside it) with the side nearest its present heading facing the surface, and approaches: a foot
+sideways from beyond it at ``foot_z``, a valley from above. Once the border row touches (the
+pressure passes ``pressure_pa``), it sweeps along at ``sweep_speed_mps``, holding the pad's
+orientation and its place across the sweep, and servoing its distance to the surface on the
+pressure (``sweep_pressure_pa``); a valley's side is swept in passes ``step_m`` apart from the
+hollow's edge towards its middle. Every settled imprint of the border row goes into the mission's
+contact cloud with the surface's estimated normal. At the end, or when the surface ends under the
+border (no contact for ``lost_s``), or the contact leaves the border (the body touches), it
+writes ``"result": "swept"`` (``reach`` when the arm could not get there, ``nothing`` when no
+surface was found, ``body`` when the pad's body touched first) and goes back to the touched
+point it left, as ``reapproach`` does; exploring goes on from there.
+
+It belongs beside ``reapproach`` in the sequence before ``touch``: each leaf carries out its
+own kind of job and lets the other pass.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from py_trees.common import Status
+
+from tactile_bt.tree.behaviours.contact_points import imprint_points
+from tactile_bt.tree.behaviours.reapproach import Reapproach
+from tactile_bt.tree.blackboard import TIME, read, read_or
+from tactile_bt.tree.declaration import Parameter
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE
+
+__all__ = ["BorderSweep", "level_facing"]
+
+#: Gains (1/s) of the place and orientation held while sweeping.
+_K_HOLD = 5.0
+_K_TURN = 3.0
+#: The pad starts sweeping this far (m) inside the run's ends, so that its border row covers them.
+_END_INSIDE_M = 0.01
+#: The pad holds still this long (s) after touching, for the pressure to settle, before it sweeps.
+_SETTLE_S = 0.5
+#: The pad lies on the face to be swept while its centre is this close (m) to the face's plane.
+_ON_FACE_M = 0.01
+#: The contact has left the border (the body touches) when its centre of pressure lies this far (m)
+#: inside the border.
+_BODY_M = 0.012
+#: Only the imprint within this distance (m) of the border facing the face is recorded.
+_BORDER_M = 0.005
+
+
+def level_facing(towards: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """The rotation (world, 3×3) of a level pad (sensor z down) with one of its four sides
+    facing the world xy direction ``towards``: the one that turns the pad least from
+    ``current``."""
+    d = np.array([towards[0], towards[1], 0.0])
+    d /= np.linalg.norm(d)
+    z = np.array([0.0, 0.0, -1.0])
+    best, best_angle = None, math.inf
+    for side in (d, -d):
+        for x in (side, np.cross(side, z)):  # the facing side is sensor ±x or ±y
+            R = np.column_stack((x, np.cross(z, x), z))
+            angle = float(np.linalg.norm(Rotation.from_matrix(R @ current.T).as_rotvec()))
+            if angle < best_angle:
+                best, best_angle = R, angle
+    return best
+
+
+class BorderSweep(Reapproach):
+    """Carry out the border sweep pending on ``key``, if any (see the module docstring); SUCCESS
+    at once without one."""
+
+    uses = frozenset({"cop", "pressure"})
+
+    sweep_speed_mps = Parameter(0.015, bound=POSITIVE, doc="Speed along the sweep (m/s).")
+    sweep_pressure_pa = Parameter(1000.0, bound=POSITIVE,
+                                  doc="Pressure the border row is held at while sweeping (Pa).")
+    kp = Parameter(1.0e-5, bound=POSITIVE, unit="m/s/Pa",
+                   doc="Gain of the pad's speed towards the surface on the pressure error (m/s per Pa).")
+    max_press_mps = Parameter(0.01, bound=POSITIVE, doc="Largest speed towards or away from the surface (m/s).")
+    lost_s = Parameter(0.5, bound=POSITIVE,
+                       doc="The surface has ended under the border after this long without contact (s).")
+    voxel_m = Parameter(0.001, bound=POSITIVE, doc="One recorded sample per voxel of this edge (m), as ``record_contacts``.")
+    min_tilt_rad = Parameter(math.radians(15.0), bound=NON_NEGATIVE,
+                             doc="Least tilt of the pad about a valley's axis (rad).")
+    max_tilt_rad = Parameter(math.radians(55.0), bound=NON_NEGATIVE,
+                             doc="Largest tilt of the pad about a valley's axis (rad); a valley needing more is not "
+                                 "swept (``reach``).")
+
+    def initialise(self) -> None:
+        super().initialise()  # a probe job is reapproach's; this leaf passes it by
+        job = read_or(self.key)
+        self._job = job if isinstance(job, dict) and "sweep" in job and "result" not in job else None
+        self._sweeping = False
+        self._recorded = 0
+        if self._job is not None:
+            self._start_sweep()
+
+    # -- the plan -------------------------------------------------------------------------------
+    def _start_sweep(self) -> None:
+        run = self._job["sweep"]
+        self._going_home = False
+        self._kind = run.get("kind", "foot")
+        out, along = np.asarray(run["out"], dtype=float), np.asarray(run["along"], dtype=float)
+        self._out, self._along = np.array([*out, 0.0]), np.array([*along, 0.0])
+        self._normal = np.asarray(run["normal"], dtype=float)
+        reach = self.pad.half_width_m  # from the pad centre to the border row's edge
+        length = float(run["length_m"])
+        self._first = min(reach - _END_INSIDE_M, length / 2)
+        self._s_end = max(length - (reach - _END_INSIDE_M), length / 2)
+        border = np.asarray(run["start"], dtype=float) + along * self._first  # world xy of the border's middle
+        level = level_facing(-out, self.pose[:3, :3])
+        top_z = float(self._job.get("top_z", 0.0))
+        if self._kind == "foot":
+            tilt, z = 0.0, float(self._job["foot_z"])
+            self._foot_z = z
+            self._press = -self._out  # sideways onto the face
+            self._passes, self._step = 1, np.zeros(3)
+        else:
+            tilt = self._valley_tilt(run)
+            z = float(run["rim_z"])
+            self._press = np.array([0.0, 0.0, -1.0])  # down onto the side
+            self._passes = max(1, int(math.ceil(float(run["width_m"]) / float(run["step_m"]))))
+            self._step = -self._out * float(run["step_m"])
+        if tilt is None:
+            self._waypoints = []
+            self._finish("reach")
+            return
+        # tilted about the axis, the body (towards out) rising
+        turn = Rotation.from_rotvec(-tilt * self._along).as_matrix()
+        self._R = turn @ level
+        body = turn @ self._out
+        self._origin = np.array([*border, z]) + body * reach  # the pad centre with its border on the line
+        self._pass = 0
+        standoff = self._origin - self._press * self.standoff_m
+        self._route(standoff, self._R, top_z)
+        if self._kind == "foot":
+            self._low_route(standoff, length)
+        self._approached = 0.0
+        self._last_contact = math.inf
+
+    def _valley_tilt(self, run: dict) -> float | None:
+        """The planner's tilt about a valley's axis (``tilt_rad``: the pad's body clears the
+        touched rim it lies over), at least ``min_tilt_rad``; None beyond ``max_tilt_rad``."""
+        tilt = max(self.min_tilt_rad, float(run["tilt_rad"]))
+        return tilt if tilt <= self.max_tilt_rad else None
+
+    def _low_route(self, standoff: np.ndarray, length: float) -> None:
+        """Over the face being swept, turn the pad level just above the face and glide down
+        along it to the standoff, instead of moving over high above everything touched (a
+        foot near the arm's base may be out of its reach from there)."""
+        T = self.pose
+        foot = self._origin - self._out * self.pad.half_width_m  # on the foot, level with the pad's border
+        into = float((foot - T[:3, 3]) @ self._out)  # how far the pad is inside the foot (m)
+        along = self._first + float((T[:3, 3] - self._origin) @ self._along)
+        n = self._normal
+        on_face = abs(float((T[:3, 3] - foot) @ n)) < _ON_FACE_M
+        if into <= 0 or not on_face or not -_END_INSIDE_M <= along <= length + _END_INSIDE_M:
+            return  # not on this face: the way over everything touched
+        slope = math.hypot(n[0], n[1]) / max(n[2], 1e-6)  # the face's rise per m inwards
+        border = into + self.pad.half_width_m  # the level pad's inner border, inside the foot (m)
+        level_z = self._foot_z + border * slope + self.clearance_m
+        if level_z < T[2, 3]:
+            level_z = T[2, 3]
+        lifted = self._waypoints[0]
+        self._waypoints = [lifted, (np.array([T[0, 3], T[1, 3], level_z + self.lift_m]), self._R, "levelling"),
+                           (standoff, self._R, "gliding down to the foot")]
+
+    def describe(self) -> str:
+        if self._job is not None and self._sweeping and not self._going_home:
+            return f"sweeping with the border, pass {self._pass + 1} of {self._passes}, {self._recorded} samples"
+        return super().describe()
+
+    # -- the life cycle -------------------------------------------------------------------------
+    def update(self) -> Status:
+        if self._verdict or self._job is None or self._going_home or self._done:
+            return super().update()
+        f = self.features
+        touching = f.in_contact and f.pressure >= self.pressure_pa
+        if self._waypoints:
+            position, R, phase = self._waypoints[0]
+            self._phase = phase
+            if touching and phase != "lifting off":  # something in the way: not the surface looked for
+                self._finish("nothing")
+            elif self._move(position, R):
+                self._waypoints.pop(0)
+                self._deadline = self.now + self.move_s
+                self._progress = (math.inf, self.now)
+            elif self._out_of_reach():
+                self._finish("reach")
+            return Status.RUNNING
+        if not self._sweeping:
+            self._phase = "approaching with the border"
+            if touching:
+                self._sweeping, self._last_contact, self._touched = True, self.now, self.now
+            elif self._approached > self.standoff_m + self.approach_m or self._at_table():
+                self._finish("nothing")
+                return Status.RUNNING
+            else:
+                self._approached += self.approach_speed_mps * self.dt
+            self._hold(self.approach_speed_mps, 0.0)
+            return Status.RUNNING
+        self._phase = "sweeping with the border"
+        if f.in_contact:
+            self._last_contact = self.now
+            if self._off_the_border(f):
+                self._finish("body")
+                return Status.RUNNING
+            self._record(f)
+        origin = self._origin + self._step * self._pass
+        forward = self._pass % 2 == 0  # passes go to and fro
+        along = self._first + float((self.pose[:3, 3] - origin) @ self._along)  # from the sweep's start
+        settled = self.now - self._touched >= _SETTLE_S
+        done = along >= self._s_end if forward else along <= self._first
+        if self.now - self._last_contact > self.lost_s:
+            self._finish("swept")
+            return Status.RUNNING
+        if done and settled:
+            self._pass += 1
+            if self._pass >= self._passes:
+                self._finish("swept")
+                return Status.RUNNING
+            forward = not forward
+        if f.in_contact:
+            press = max(-self.max_press_mps, min(self.max_press_mps, self.kp * (self.sweep_pressure_pa - f.pressure)))
+        else:
+            press = self.approach_speed_mps  # find the surface again
+        if press > 0 and self._at_table() and self._press[2] < 0:
+            press = 0.0  # never down onto the table
+        speed = self.sweep_speed_mps if settled else 0.0
+        self._hold(press, speed if forward else -speed)
+        self._feedback = None
+        return Status.RUNNING
+
+    def _at_table(self) -> bool:
+        """Whether the pad's lowest corner is within ``table_clearance_m`` of the table, coming
+        down towards it (a valley's floor, not the table, is what the pad looks for)."""
+        return self._kind != "foot" and self._corner_at_table()
+
+    def _hold(self, press_mps: float, along_mps: float) -> None:
+        """Command a twist that moves the pad ``press_mps`` towards the surface and ``along_mps``
+        along the sweep, holding its orientation and its place across the sweep (the pass's
+        line)."""
+        T = self.pose
+        error = self._origin + self._step * self._pass - T[:3, 3]
+        error -= (error @ self._along) * self._along + (error @ self._press) * self._press
+        v = _K_HOLD * error + self._press * press_mps + self._along * along_mps
+        w = _K_TURN * Rotation.from_matrix(self._R @ T[:3, :3].T).as_rotvec()
+        Rt = T[:3, :3].T
+        self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))
+
+    def _facing(self) -> np.ndarray:
+        """The unit sensor-frame xy direction of the border row in contact: the pad's side
+        facing away from its body."""
+        facing = (self.pose[:3, :3].T @ -self._out)[:2]
+        return facing / max(float(np.linalg.norm(facing)), 1e-9)
+
+    def _off_the_border(self, f) -> bool:
+        """Whether the contact's centre of pressure lies more than ``_BODY_M`` inside the border
+        row: the pad's body touches, not its border."""
+        x, y = self.features_raw.cop_xy
+        return float(x * self._facing()[0] + y * self._facing()[1]) < self.pad.half_width_m - _BODY_M
+
+    def _record(self, f) -> None:
+        """Add the imprint of the border row, while its pressure is settled (between half and
+        twice ``sweep_pressure_pa``), with the surface's estimated normal."""
+        if not 0.5 * self.sweep_pressure_pa <= f.pressure <= 2.0 * self.sweep_pressure_pa:
+            return
+        local, pressure = imprint_points(self.features_raw)
+        T = self.pose
+        keep = local[:, :2] @ self._facing() >= self.pad.half_width_m - _BORDER_M
+        world = local[keep] @ T[:3, :3].T + T[:3, 3]
+        cloud = self.bb.contacts
+        fresh = cloud.fresh(world, self.voxel_m)
+        cloud.extend(world[fresh], self._normal, pressure[keep][fresh], read(TIME))
+        self._recorded += int(np.count_nonzero(fresh))
