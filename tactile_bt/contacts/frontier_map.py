@@ -342,16 +342,13 @@ class FrontierMap:
             return flat & (n[:, 2] > math.cos(steep_rad)) & reached
 
     def untouched_below(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, table_z_m: float,
-                        steep_rad: float, reach_m: float = math.inf, face: np.ndarray | None = None,
-                        covered_m: float = 0.0) -> float:
+                        steep_rad: float, reach_m: float = math.inf, face: np.ndarray | None = None) -> float:
         """Estimated area (m², in the table plane) of the surface left between the frontier
         cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
         a plane face goes on down to it (:meth:`face_going_on`, or ``face``, its result for these
         cells when the caller has it already): the untouched cells within the run down to the
         table at the face's tilt, ``(z - table) / tan(tilt)``, outwards of each such cell, each
-        counted once; with ``covered_m``, the first ``covered_m`` of the face (m, along it) beyond
-        the outer border of each cell counts as touched (a contact covers the surface this close
-        to it, and the samples of a frontier cell reach about to its border)."""
+        counted once."""
         if face is None:
             face = self.face_going_on(rows, cols, out, steep_rad, table_z_m, reach_m)
         if not np.any(face):
@@ -359,11 +356,9 @@ class FrontierMap:
         rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]
         tilt = np.maximum(self.tilt(rows, cols), math.radians(1.0))
         run = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0) / np.tan(tilt)
-        # the covered part beyond the cell's outer border, in the table plane (none: the old count)
-        first = (0.5 * self.cell_m + covered_m * np.cos(tilt)) if covered_m > 0 else np.zeros_like(run)
         steps = np.arange(0.5, max(float(run.max()) / self.cell_m, 0.5) + 1e-9, 0.5) * self.cell_m
         xy = self.centre_of(rows, cols)[:, None, :] + out[:, None, :] * steps[None, :, None]
-        rc = self.cell_of(xy[(steps[None, :] <= run[:, None]) & (steps[None, :] > first[:, None])])
+        rc = self.cell_of(xy[steps[None, :] <= run[:, None]])
         rc = rc[np.all((rc >= 0) & (rc < self.n), axis=1)]
         below = np.zeros((self.n, self.n), dtype=bool)
         below[rc[:, 0], rc[:, 1]] = True

@@ -100,7 +100,7 @@ def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float)
     return runs
 
 
-def valley_sides(m, mask: np.ndarray, pad_width_m: float, step_m: float = 0.003) -> list[dict]:
+def valley_sides(m, mask: np.ndarray, step_m: float = 0.003) -> list[dict]:
     """Sweeps of the sides of the valleys in ``mask`` (the untouched cells of holes narrower
     than the pad, :meth:`~tactile_bt.contacts.frontier_map.FrontierMap.valleys`), one per side
     of each hole along its longer axis: a pad tilted about that axis, its body over the touched
@@ -113,10 +113,9 @@ def valley_sides(m, mask: np.ndarray, pad_width_m: float, step_m: float = 0.003)
         ``kind`` ("valley"), ``out`` (unit world xy from the hole towards this side), ``along``,
         ``start`` (world xy of the border's line at the hole's edge, at its first end),
         ``length_m``, ``width_m`` (how far inwards the passes go), ``step_m``, ``rim_z`` (the
-        rim's height there, m), ``depth_m`` (how deep the hole is taken to be under the last
-        pass: half its width, a 45° side), ``tilt_rad`` (the pad's tilt about the axis that
-        clears the touched surface under its body, :func:`_clearing_tilt`), ``normal`` (the
-        rim's mean outward normal), ``centre`` (world xy).
+        rim's height there, m), ``rim_rise`` (the rim's slope rising away from the hole, from its
+        mean normal: where the sweeping pad starts to tilt from), ``normal`` (the rim's mean
+        outward normal), ``centre`` (world xy).
     """
     from scipy import ndimage
 
@@ -149,33 +148,13 @@ def valley_sides(m, mask: np.ndarray, pad_width_m: float, step_m: float = 0.003)
             start = mid + out * (edge - 0.001) + along * float(s.min())
             length = float(s.max() - s.min())
             rim_z = float(np.max(m.z_max[rc[:, 0], rc[:, 1]]))
-            tilt = _clearing_tilt(m, mid + out * edge, out, along, (s.min(), s.max()), rim_z, width, pad_width_m)
+            normal /= np.linalg.norm(normal)
+            rise = -float(normal[:2] @ out) / max(float(normal[2]), 0.1)  # the rim's rise away from the hole
             sides.append({"kind": "valley", "out": out.copy(), "along": along.copy(), "start": start,
                           "length_m": length, "width_m": width / 2 + step_m, "step_m": step_m,
-                          "rim_z": rim_z, "depth_m": width / 2, "tilt_rad": tilt,
-                          "normal": normal / np.linalg.norm(normal),
+                          "rim_z": rim_z, "rim_rise": rise, "normal": normal,
                           "centre": start + along * length / 2})
     return sides
-
-
-def _clearing_tilt(m, edge_xy: np.ndarray, out: np.ndarray, along: np.ndarray, span: tuple, rim_z: float,
-                   width: float, pad_width_m: float) -> float:
-    """Tilt (rad) about ``along`` at which a pad whose border lies on the hole's edge line
-    (``edge_xy``, at ``rim_z``) and, for the last pass, half the hole's ``width`` further in and as
-    deep, has its body (towards ``out``, ``pad_width_m`` long) 2 mm above every touched cell
-    under it, plus 5°."""
-    touched = np.isfinite(m.z_max)
-    rows, cols = np.nonzero(touched)
-    xy = m.centre_of(rows, cols)
-    z = m.z_max[rows, cols]
-    s = (xy - edge_xy) @ along
-    slope = 0.0
-    for inward, border_z in ((0.0, rim_z), (width / 2, rim_z - width / 2)):
-        d = (xy - edge_xy) @ out + inward
-        under = (d > m.cell_m) & (d < pad_width_m) & (s > span[0] - pad_width_m / 2) & (s < span[1] + pad_width_m / 2)
-        if np.any(under):
-            slope = max(slope, float(np.max((z[under] + 0.002 - border_z) / d[under])))
-    return math.atan(slope) + math.radians(5.0)
 
 
 class SweepPlan:

@@ -35,7 +35,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tactile_bt import defaults
 from tactile_bt.sim.region import check_region
 
 __all__ = ["true_surface", "scan_object", "sample_surface", "region_mask", "surface_distance",

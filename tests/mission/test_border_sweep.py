@@ -1,6 +1,7 @@
-"""A level pad sweeps the foot of a pyramid's face with its border, in the simulator: the band a
-pad lying on the face leaves above the table is touched, no deeper than a flat contact presses,
-and the pad goes back to where it came from."""
+"""Border sweeps in the simulator: a level pad sweeps the foot of a pyramid's face, and a tilted
+pad the side of a groove it bridges, with its border row: the surface a flat pad cannot lie on
+is touched, no deeper than a flat contact presses, and the pad goes back to where it came
+from."""
 
 import math
 from pathlib import Path
@@ -10,7 +11,11 @@ import py_trees
 from py_trees.common import Status
 
 from tactile_bt import run_mission
-from tactile_bt.contacts.sweep_plan import foot_runs
+from scipy.spatial import cKDTree
+
+from tactile_bt.contacts.frontier_map import FrontierMap
+from tactile_bt.contacts.sweep_plan import foot_runs, valley_sides
+from tactile_bt.mission import accuracy as A
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.sim.scene import load_scene
 from tactile_bt.tree.behaviours import BorderSweep
@@ -78,3 +83,44 @@ def test_the_level_pad_touches_the_face_low_along_its_foot_and_goes_home():
     poses[:, :3, :3], poses[:, :3, 3], poses[:, 3, 3] = log["rotation"], log["position_m"], 1.0
     assert min(pad_clearance(T, pad, 0.0) for T in poses[::25]) > 0.0015
     assert np.max(log["pressure_pa"]) < 2 * sweep.sweep_pressure_pa
+
+
+def _groove_map(scene):
+    """A frontier map of the grooved block's top touched everywhere but a strip 20–40 mm up one
+    side of the groove (its local +x), 110 mm long; and the strip's true points."""
+    _, obj = A.scan_object(scene, None)
+    points, normals, _ = A.sample_surface(A.true_surface(obj), 0.001)
+    top = normals[:, 2] > 0.5
+    points, normals = points[top], normals[top]
+    local = (points - obj.pose[:3, 3]) @ obj.pose[:3, :3]
+    strip = (local[:, 0] > 0.02) & (local[:, 0] < 0.04) & (np.abs(local[:, 1]) < 0.055)
+    m = FrontierMap(points[0, :2], 0.002, 0.3)
+    m.add(points[~strip], normals[~strip])
+    return m, points[strip], obj
+
+
+def test_a_tilted_pad_sweeps_the_side_of_a_groove_it_bridges_with_its_border():
+    scene = load_scene(ROOT / "sim" / "scan_groove.yaml")
+    m, strip, obj = _groove_map(scene)
+    sides = valley_sides(m, m.valleys(0.08))
+    assert len(sides) == 2  # the strip's two long sides
+    plus_x = obj.pose[:3, 0][:2]
+    side = max(sides, key=lambda s: s["out"] @ plus_x)  # from the rim side, the pad's body over it
+    job = {"sweep": side, "foot_z": 0.002, "top_z": float(np.nanmax(m.z_max)),
+           "home": (np.array([0.0, 0.0, 0.0401]), np.array([0.0, 0.0, 1.0]))}
+    sweep = BorderSweep()
+    root = py_trees.composites.Sequence("sweep_the_side", memory=True, children=[_Ask(job), sweep])
+    result = run_mission(py_trees.trees.BehaviourTree(root), scene, duration=90.0)
+    assert result.summary.status == "success", result.summary.reason
+    assert job["result"] == "swept"
+    samples = result.contact_data[:, :3]
+    # on the surface: within what the border's pressure presses the foam and the rubber
+    true_points, true_normals, _ = A.sample_surface(A.true_surface(obj), 0.0008)
+    distance, _ = A.surface_distance(samples, true_points, true_normals, 0.0008)
+    assert np.percentile(distance, 99) < 0.001
+    # and they cover the half of the strip on this side, up to its middle, that the flat pad could
+    # not reach (the sweep from the other side covers the rest)
+    local_x = (strip - obj.pose[:3, 3]) @ obj.pose[:3, 0]
+    near, _ = cKDTree(samples).query(strip[local_x > 0.03])
+    assert np.mean(near <= 0.002) > 0.9
+    assert np.max(result.log["pressure_pa"]) < 2 * sweep.sweep_pressure_pa

@@ -59,9 +59,11 @@ _END_INSIDE_M = 0.01
 _SETTLE_S = 0.5
 #: The pad lies on the face to be swept while its centre is this close (m) to the face's plane.
 _ON_FACE_M = 0.01
-#: The contact has left the border (the body touches) when its centre of pressure lies this far (m)
-#: inside the border.
-_BODY_M = 0.012
+#: A level pad's body touches, not its border, when the centre of pressure lies this far (m) inside
+#: the border row.
+_BODY_M = 0.01
+#: Fastest roll (rad/s) of the lean about the border.
+_MAX_LEAN_RPS = 0.3
 #: Only the imprint within this distance (m) of the border facing the face is recorded.
 _BORDER_M = 0.005
 
@@ -98,11 +100,16 @@ class BorderSweep(Reapproach):
     lost_s = Parameter(0.5, bound=POSITIVE,
                        doc="The surface has ended under the border after this long without contact (s).")
     voxel_m = Parameter(0.001, bound=POSITIVE, doc="One recorded sample per voxel of this edge (m), as ``record_contacts``.")
-    min_tilt_rad = Parameter(math.radians(15.0), bound=NON_NEGATIVE,
-                             doc="Least tilt of the pad about a valley's axis (rad).")
-    max_tilt_rad = Parameter(math.radians(55.0), bound=NON_NEGATIVE,
-                             doc="Largest tilt of the pad about a valley's axis (rad); a valley needing more is not "
-                                 "swept (``reach``).")
+    lean_rad = Parameter(math.radians(15.0), bound=NON_NEGATIVE,
+                         doc="A valley's side is approached with the pad this much steeper than the rim beside it "
+                             "(rad).")
+    lean_gain = Parameter(60.0, bound=NON_NEGATIVE, unit="rad/s/m",
+                          doc="Sweeping a valley's side, the pad rolls about its border at this rate per m that the "
+                              "centre of pressure lies inside the border row by more than half a pitch (body up), or "
+                              "less (body down): it leans until the row next to the border just begins to carry.")
+    max_tilt_rad = Parameter(math.radians(70.0), bound=NON_NEGATIVE,
+                             doc="Largest tilt of the pad from the level while sweeping a valley's side (rad); "
+                                 "beyond it the sweep ends (``tilt``).")
 
     def initialise(self) -> None:
         super().initialise()  # a probe job is reapproach's; this leaf passes it by
@@ -133,21 +140,18 @@ class BorderSweep(Reapproach):
             self._foot_z = z
             self._press = -self._out  # sideways onto the face
             self._passes, self._step = 1, np.zeros(3)
-        else:
-            tilt = self._valley_tilt(run)
+        else:  # steeper than the rim by lean_rad to start with; the lean servo sets it from there
+            tilt = math.atan(max(float(run["rim_rise"]), 0.0)) + self.lean_rad
             z = float(run["rim_z"])
             self._press = np.array([0.0, 0.0, -1.0])  # down onto the side
             self._passes = max(1, int(math.ceil(float(run["width_m"]) / float(run["step_m"]))))
             self._step = -self._out * float(run["step_m"])
-        if tilt is None:
-            self._waypoints = []
-            self._finish("reach")
-            return
         # tilted about the axis, the body (towards out) rising
-        turn = Rotation.from_rotvec(-tilt * self._along).as_matrix()
+        self._hinge = np.cross([0.0, 0.0, 1.0], self._out)  # about it, -angle lifts the body
+        turn = Rotation.from_rotvec(-tilt * self._hinge).as_matrix()
         self._R = turn @ level
-        body = turn @ self._out
-        self._origin = np.array([*border, z]) + body * reach  # the pad centre with its border on the line
+        self._line = np.array([*border, z])  # the border's middle on the first pass's line
+        self._origin = self._line + turn @ self._out * reach  # the pad centre there
         self._pass = 0
         standoff = self._origin - self._press * self.standoff_m
         self._route(standoff, self._R, top_z)
@@ -155,12 +159,6 @@ class BorderSweep(Reapproach):
             self._low_route(standoff, length)
         self._approached = 0.0
         self._last_contact = math.inf
-
-    def _valley_tilt(self, run: dict) -> float | None:
-        """The planner's tilt about a valley's axis (``tilt_rad``: the pad's body clears the
-        touched rim it lies over), at least ``min_tilt_rad``; None beyond ``max_tilt_rad``."""
-        tilt = max(self.min_tilt_rad, float(run["tilt_rad"]))
-        return tilt if tilt <= self.max_tilt_rad else None
 
     def _low_route(self, standoff: np.ndarray, length: float) -> None:
         """Over the face being swept, turn the pad level just above the face and glide down
@@ -218,15 +216,23 @@ class BorderSweep(Reapproach):
             self._hold(self.approach_speed_mps, 0.0)
             return Status.RUNNING
         self._phase = "sweeping with the border"
+        inside = self._inside(f) if f.in_contact else 0.0  # how far the contact lies inside the border row
+        lean = 0.0
+        if self._kind != "foot" and f.in_contact:  # roll about the border until the next row just carries
+            lean = max(-_MAX_LEAN_RPS, min(_MAX_LEAN_RPS, self.lean_gain * (inside - 0.5 * self.pad.pitch)))
+            if math.acos(max(-1.0, min(1.0, -float(self.pose[2, 2])))) > self.max_tilt_rad and lean > 0:
+                self._finish("tilt")
+                return Status.RUNNING
+        elif f.in_contact and inside > _BODY_M:  # a level pad's body on the surface: not the border
+            self._finish("body")
+            return Status.RUNNING
         if f.in_contact:
             self._last_contact = self.now
-            if self._off_the_border(f):
-                self._finish("body")
-                return Status.RUNNING
-            self._record(f)
-        origin = self._origin + self._step * self._pass
+            if inside <= self.pad.pitch:
+                self._record(f)
+        line = self._line + self._step * self._pass
         forward = self._pass % 2 == 0  # passes go to and fro
-        along = self._first + float((self.pose[:3, 3] - origin) @ self._along)  # from the sweep's start
+        along = self._first + float((self._border() - line) @ self._along)  # from the sweep's start
         settled = self.now - self._touched >= _SETTLE_S
         done = along >= self._s_end if forward else along <= self._first
         if self.now - self._last_contact > self.lost_s:
@@ -245,7 +251,7 @@ class BorderSweep(Reapproach):
         if press > 0 and self._at_table() and self._press[2] < 0:
             press = 0.0  # never down onto the table
         speed = self.sweep_speed_mps if settled else 0.0
-        self._hold(press, speed if forward else -speed)
+        self._hold(press, speed if forward else -speed, lean)
         self._feedback = None
         return Status.RUNNING
 
@@ -254,29 +260,39 @@ class BorderSweep(Reapproach):
         down towards it (a valley's floor, not the table, is what the pad looks for)."""
         return self._kind != "foot" and self._corner_at_table()
 
-    def _hold(self, press_mps: float, along_mps: float) -> None:
-        """Command a twist that moves the pad ``press_mps`` towards the surface and ``along_mps``
-        along the sweep, holding its orientation and its place across the sweep (the pass's
-        line)."""
+    def _border(self) -> np.ndarray:
+        """World position (m) of the middle of the pad's border edge on the side that touches."""
         T = self.pose
-        error = self._origin + self._step * self._pass - T[:3, 3]
+        u = self._facing() * self.pad.half_width_m
+        return T[:3, :3] @ np.array([u[0], u[1], 0.0]) + T[:3, 3]
+
+    def _hold(self, press_mps: float, along_mps: float, lean_rps: float = 0.0) -> None:
+        """Command a twist that moves the pad ``press_mps`` towards the surface and ``along_mps``
+        along the sweep and rolls it ``lean_rps`` about its border's edge (body up), holding its
+        orientation otherwise and its border's place across the sweep (the pass's line)."""
+        T = self.pose
+        border = self._border()
+        error = self._line + self._step * self._pass - border
         error -= (error @ self._along) * self._along + (error @ self._press) * self._press
-        v = _K_HOLD * error + self._press * press_mps + self._along * along_mps
-        w = _K_TURN * Rotation.from_matrix(self._R @ T[:3, :3].T).as_rotvec()
+        roll = -lean_rps * self._hinge  # about the border's edge: the body rises for lean_rps > 0
+        if lean_rps:
+            self._R = Rotation.from_rotvec(roll * self.dt).as_matrix() @ self._R
+        v = _K_HOLD * error + self._press * press_mps + self._along * along_mps + np.cross(roll, T[:3, 3] - border)
+        w = roll + _K_TURN * Rotation.from_matrix(self._R @ T[:3, :3].T).as_rotvec()
         Rt = T[:3, :3].T
         self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))
+
+    def _inside(self, f) -> float:
+        """How far (m) the centre of pressure lies inside the centre of the border row."""
+        x, y = f.cop_xy
+        facing = self._facing()
+        return self.pad.half_width_m - 0.5 * self.pad.pitch - float(x * facing[0] + y * facing[1])
 
     def _facing(self) -> np.ndarray:
         """The unit sensor-frame xy direction of the border row in contact: the pad's side
         facing away from its body."""
         facing = (self.pose[:3, :3].T @ -self._out)[:2]
         return facing / max(float(np.linalg.norm(facing)), 1e-9)
-
-    def _off_the_border(self, f) -> bool:
-        """Whether the contact's centre of pressure lies more than ``_BODY_M`` inside the border
-        row: the pad's body touches, not its border."""
-        x, y = self.features_raw.cop_xy
-        return float(x * self._facing()[0] + y * self._facing()[1]) < self.pad.half_width_m - _BODY_M
 
     def _record(self, f) -> None:
         """Add the imprint of the border row, while its pressure is settled (between half and

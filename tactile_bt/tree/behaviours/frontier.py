@@ -479,12 +479,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                         if self.valley_m2 > 0:
                             where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
                         untouched = f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
-                        job = self._sweep(point)
-                        if job is not None:
-                            x, y = job["sweep"]["centre"] * 1e3
-                            what = "the foot of the face" if job["sweep"]["kind"] == "foot" else "the side of the valley"
-                            self.feedback_message = (f"sweeping {what} at ({x:.0f}, {y:.0f}) mm: "
-                                                     f"{untouched}) ({counts})")
+                        if self._asked_sweep(point, f"{untouched}) ({counts})"):
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()
@@ -494,6 +489,8 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                             x, y = job["frontier_xy"] * 1e3
                             self.feedback_message = (f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm: {left} "
                                                      f"({counts})")
+                            return Status.FAILURE
+                        if self._asked_sweep(point, f"{left} ({counts})"):  # nothing left to re-approach
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
                         return self._verdict()

@@ -26,7 +26,6 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from tactile_bt import defaults
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
 from tactile_bt.tree.blackboard import read_or, write
@@ -62,8 +61,7 @@ class FrontierLeft:
                                  "slope (0 = no such test). A rounded side steepening towards the table, or an edge "
                                  "the pad rolled over, adds nothing: what lies below is steeper than anything "
                                  "touched. The valleys that explain frontier (holes in the touched area narrower than "
-                                 "the pad) add their area. The first 2 mm of the face below the frontier "
-                                 "(``defaults.COVERAGE_RADIUS_M``) count as touched: a contact covers that much.")
+                                 "the pad) add their area.")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
@@ -101,8 +99,7 @@ class FrontierLeft:
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
-        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face,
-                                         defaults.COVERAGE_RADIUS_M)
+        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
@@ -171,13 +168,24 @@ class FrontierLeft:
         if self.below_m2 > 0 and math.isfinite(foot_z):
             run = self.sweeps.choose(foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z), point[:2])
         if run is None and self.valley_m2 > 0:
-            run = self.sweeps.choose(valley_sides(self.map, self.valley_mask, min(self.pad.size_m)), point[:2])
+            run = self.sweeps.choose(valley_sides(self.map, self.valley_mask), point[:2])
         if run is None:
             return None
         job = {"sweep": run, "foot_z": foot_z, "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
         write(self.reapproach_key, job)
         return job
+
+    def _asked_sweep(self, point: np.ndarray, detail: str) -> bool:
+        """Ask for a border sweep (:meth:`_sweep`) and say so in the feedback message; False
+        when there is none to ask for."""
+        job = self._sweep(point)
+        if job is None:
+            return False
+        x, y = job["sweep"]["centre"] * 1e3
+        what = "the foot of the face" if job["sweep"]["kind"] == "foot" else "the side of the valley"
+        self.feedback_message = f"sweeping {what} at ({x:.0f}, {y:.0f}) mm: {detail}"
+        return True
 
     def _verdict(self) -> Status:
         """FAILURE for good (:attr:`feedback_message` says why): written to ``reapproach_key`` as
