@@ -118,6 +118,11 @@ ARM_STIFFNESS_NM_PER_RAD: float = 200.0
 #: Joint damping of the compliance mode (N m s/rad, paper Sec. V).
 ARM_DAMPING_NMS_PER_RAD: float = 0.2
 
+#: A point of a scanned surface counts as covered within this distance (m) of a contact: in the
+#: scan figures (tactile_bt.mission.accuracy) and in the frontier planner's estimate of the band
+#: the table leaves (tactile_bt.contacts.frontier_map.FrontierMap.untouched_below).
+COVERAGE_RADIUS_M: float = 0.002
+
 # --- Metrics (the columns of the paper's Tables I-III) -----------------------------------------
 #: Convergence bands for the response time, per logged error (Pa, px, px, rad).
 METRIC_BANDS = {

@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 __all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "EXPLAINING", "sector", "describe_left"]
 
@@ -87,6 +88,8 @@ class FrontierMap:
         self.count = np.zeros((self.n, self.n), dtype=np.int32)
         self.normal_sum = np.zeros((self.n, self.n, 3))
         self.z_max = np.full((self.n, self.n), -np.inf)
+        #: Cells seen to hold no surface above the table (a border swept down to it touched nothing).
+        self.empty = np.zeros((self.n, self.n), dtype=bool)
         self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
         self.cause = np.full((self.n, self.n, SECTORS), -1, dtype=np.int16)
         #: The causes of blocks, in the order they first came.
@@ -224,13 +227,13 @@ class FrontierMap:
         """``(n, n)`` bool: the untouched cells of holes in the touched area, enclosed by it (not
         connected to the untouched surroundings) and at most ``max_width_m`` across their
         narrower side (of their bounding box in the grid): hollows a flat pad of that width
-        bridges."""
+        bridges. Cells seen :attr:`empty` belong to no hole (the table seen through a ring)."""
         out = np.zeros((self.n, self.n), dtype=bool)
         w = self._window()
         t = self._touched(self.count[w])
         if max_width_m <= 0 or not t.any():
             return out
-        holes, n = ndimage.label(~t)
+        holes, n = ndimage.label(~t & ~self.empty[w])
         if not n:
             return out
         outside = np.unique(np.concatenate((holes[0], holes[-1], holes[:, 0], holes[:, -1])))
@@ -342,27 +345,47 @@ class FrontierMap:
             return flat & (n[:, 2] > math.cos(steep_rad)) & reached
 
     def untouched_below(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, table_z_m: float,
-                        steep_rad: float, reach_m: float = math.inf, face: np.ndarray | None = None) -> float:
+                        steep_rad: float, samples: np.ndarray, radius_m: float, reach_m: float = math.inf,
+                        face: np.ndarray | None = None) -> float:
         """Estimated area (m², in the table plane) of the surface left between the frontier
         cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
         a plane face goes on down to it (:meth:`face_going_on`, or ``face``, its result for these
-        cells when the caller has it already): the untouched cells within the run down to the
-        table at the face's tilt, ``(z - table) / tan(tilt)``, outwards of each such cell, each
-        counted once."""
+        cells when the caller has it already): the face is walked outwards of each such cell from
+        its highest sample down to the table at the face's tilt, in steps of a quarter of
+        ``radius_m``, and a step counts as left where no contact sample (``samples``, ``(k, 3)``,
+        world, m) lies within ``radius_m`` of it (the scan figures' coverage radius); each step
+        stands for a strip a cell wide, and a step another cell's walk has counted already is
+        not counted again."""
         if face is None:
             face = self.face_going_on(rows, cols, out, steep_rad, table_z_m, reach_m)
         if not np.any(face):
             return 0.0
         rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]
         tilt = np.maximum(self.tilt(rows, cols), math.radians(1.0))
-        run = np.maximum(self.z_max[rows, cols] - table_z_m, 0.0) / np.tan(tilt)
-        steps = np.arange(0.5, max(float(run.max()) / self.cell_m, 0.5) + 1e-9, 0.5) * self.cell_m
+        top = self.z_max[rows, cols]
+        run = np.maximum(top - table_z_m, 0.0) / np.tan(tilt)
+        step = radius_m / 4
+        steps = np.arange(0.0, float(run.max()) + step, step)
+        walk = steps[None, :] <= run[:, None]
         xy = self.centre_of(rows, cols)[:, None, :] + out[:, None, :] * steps[None, :, None]
-        rc = self.cell_of(xy[steps[None, :] <= run[:, None]])
+        z = top[:, None] - steps[None, :] * np.tan(tilt)[:, None]
+        points = np.concatenate((xy, z[..., None]), axis=-1)[walk]
+        samples = np.asarray(samples, dtype=float).reshape(-1, 3)
+        near = samples[(samples[:, 2] <= top.max() + radius_m)
+                       & np.all(samples[:, :2] >= points[:, :2].min(axis=0) - radius_m, axis=1)
+                       & np.all(samples[:, :2] <= points[:, :2].max(axis=0) + radius_m, axis=1)]
+        if len(near):
+            distance, _ = cKDTree(near).query(points, distance_upper_bound=1.01 * radius_m)
+            points = points[distance > radius_m]
+        keys = np.unique(np.floor(points[:, :2] / step).astype(np.int64), axis=0)
+        return float(len(keys)) * step * self.cell_m
+
+    def mark_empty(self, xy: np.ndarray) -> None:
+        """Mark the untouched cells at world xy points ``(k, 2)`` (m) as :attr:`empty`."""
+        rc = self.cell_of(np.asarray(xy, dtype=float).reshape(-1, 2))
         rc = rc[np.all((rc >= 0) & (rc < self.n), axis=1)]
-        below = np.zeros((self.n, self.n), dtype=bool)
-        below[rc[:, 0], rc[:, 1]] = True
-        return float(np.count_nonzero(below & ~self.touched)) * self.cell_m**2
+        self.empty[rc[:, 0], rc[:, 1]] = True
+        self.empty &= ~self.touched
 
     def touched_area(self) -> float:
         """Area (m², in the table plane) of the touched cells."""

@@ -38,6 +38,9 @@ _GAP_M = 0.02
 #: A run needs this many cells and this length (m): fewer are a corner's or a ridge's.
 _LEAST_CELLS = 5
 _LEAST_LENGTH_M = 0.01
+#: A hole whose spread across is at least this share of its spread along is round: swept along
+#: both of its axes.
+_ROUND = 0.5
 #: A face tilted less than this (rad) from the level has no foot to sweep.
 _LEAST_TILT_RAD = math.radians(5.0)
 
@@ -100,7 +103,7 @@ def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float)
     return runs
 
 
-def valley_sides(m, mask: np.ndarray, step_m: float = 0.003) -> list[dict]:
+def valley_sides(m, mask: np.ndarray, step_m: float = 0.005) -> list[dict]:
     """Sweeps of the sides of the valleys in ``mask`` (the untouched cells of holes narrower
     than the pad, :meth:`~tactile_bt.contacts.frontier_map.FrontierMap.valleys`), one per side
     of each hole along its longer axis: a pad tilted about that axis, its body over the touched
@@ -128,32 +131,42 @@ def valley_sides(m, mask: np.ndarray, step_m: float = 0.003) -> list[dict]:
             continue
         xy = m.centre_of(rows, cols)
         mid = xy.mean(axis=0)
-        _, _, axes = np.linalg.svd(xy - mid, full_matrices=False)
-        along, across = axes[0], np.array([-axes[0][1], axes[0][0]])
-        s, c = (xy - mid) @ along, (xy - mid) @ across
-        width = float(c.max() - c.min()) + m.cell_m
-        for sign in (1.0, -1.0):
-            out = across * sign
-            edge = float(max(sign * c)) + m.cell_m / 2  # the hole's border on this side, from mid
-            # the touched cells just outside that border: the rim
-            probe = mid + out * (edge + m.cell_m) + along * np.linspace(s.min(), s.max(), 12)[:, None]
-            rc = m.cell_of(probe)
-            inside = np.all((rc >= 0) & (rc < m.n), axis=1)
-            rc = rc[inside]
-            rim = touched[rc[:, 0], rc[:, 1]]
-            if not np.any(rim):
-                continue
-            rc = rc[rim]
-            normal = np.nanmean(m.mean_normal(rc[:, 0], rc[:, 1]), axis=0)
-            start = mid + out * (edge - 0.001) + along * float(s.min())
-            length = float(s.max() - s.min())
-            rim_z = float(np.max(m.z_max[rc[:, 0], rc[:, 1]]))
-            normal /= np.linalg.norm(normal)
-            rise = -float(normal[:2] @ out) / max(float(normal[2]), 0.1)  # the rim's rise away from the hole
-            sides.append({"kind": "valley", "out": out.copy(), "along": along.copy(), "start": start,
-                          "length_m": length, "width_m": width / 2 + step_m, "step_m": step_m,
-                          "rim_z": rim_z, "rim_rise": rise, "normal": normal,
-                          "centre": start + along * length / 2})
+        _, spread, axes = np.linalg.svd(xy - mid, full_matrices=False)
+        # a long hole is swept along its axis; a round one along both
+        for along in axes[:2] if spread[1] > _ROUND * spread[0] else axes[:1]:
+            sides.extend(_sides_along(m, touched, xy, mid, along, step_m))
+    return sides
+
+
+def _sides_along(m, touched: np.ndarray, xy: np.ndarray, mid: np.ndarray, along: np.ndarray,
+                 step_m: float) -> list[dict]:
+    """The two sides of the hole of cells ``xy`` (middle ``mid``) swept along ``along``."""
+    sides: list[dict] = []
+    across = np.array([-along[1], along[0]])
+    s, c = (xy - mid) @ along, (xy - mid) @ across
+    width = float(c.max() - c.min()) + m.cell_m
+    for sign in (1.0, -1.0):
+        out = across * sign
+        edge = float(max(sign * c)) + m.cell_m / 2  # the hole's border on this side, from mid
+        # the touched cells just outside that border: the rim
+        probe = mid + out * (edge + m.cell_m) + along * np.linspace(s.min(), s.max(), 12)[:, None]
+        rc = m.cell_of(probe)
+        inside = np.all((rc >= 0) & (rc < m.n), axis=1)
+        rc = rc[inside]
+        rim = touched[rc[:, 0], rc[:, 1]]
+        if not np.any(rim):
+            continue
+        rc = rc[rim]
+        normal = np.nanmean(m.mean_normal(rc[:, 0], rc[:, 1]), axis=0)
+        start = mid + out * (edge - 0.001) + along * float(s.min())
+        length = float(s.max() - s.min())
+        rim_z = float(np.max(m.z_max[rc[:, 0], rc[:, 1]]))
+        normal /= np.linalg.norm(normal)
+        rise = -float(normal[:2] @ out) / max(float(normal[2]), 0.1)  # the rim's rise away from the hole
+        sides.append({"kind": "valley", "out": out.copy(), "along": along.copy(), "start": start,
+                      "length_m": length, "width_m": width / 2 + step_m, "step_m": step_m,
+                      "rim_z": rim_z, "rim_rise": rise, "normal": normal,
+                      "centre": start + along * length / 2})
     return sides
 
 

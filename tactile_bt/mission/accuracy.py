@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from tactile_bt import defaults
 from tactile_bt.sim.region import check_region
 
 __all__ = ["true_surface", "scan_object", "sample_surface", "region_mask", "surface_distance",
@@ -44,7 +45,7 @@ __all__ = ["true_surface", "scan_object", "sample_surface", "region_mask", "surf
 #: Spacing (m) of the surface samples the metrics are computed on.
 SAMPLE_SPACING_M = 0.0008
 #: A true point counts as covered within this distance (m) of a contact.
-COVERAGE_RADIUS_M = 0.002
+COVERAGE_RADIUS_M = defaults.COVERAGE_RADIUS_M
 #: Thresholds (m) of the F-scores.
 FSCORE_THRESHOLDS_M = (0.001, 0.002)
 

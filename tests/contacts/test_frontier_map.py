@@ -93,9 +93,14 @@ def _side(profile, n=8000, seed=3):
 def _left_near_table(points, normals):
     m = FrontierMap((0.02, 0.0), cell_m=0.002, extent_m=0.08)
     m.add(points, normals)
+    m.samples = points
     rows, cols, out = m.frontier()
     low = m.centre_of(rows, cols)[:, 0] < 0.003  # the frontier along x = 0, the table below it
     return m, rows[low], cols[low], out[low]
+
+
+def _below(m, rows, cols, out, steep_deg=65, **kwargs):
+    return m.untouched_below(rows, cols, out, 0.0, math.radians(steep_deg), m.samples, 0.002, **kwargs)
 
 
 def test_a_plane_face_going_on_to_the_table_leaves_the_run_down_to_it_untouched():
@@ -103,19 +108,35 @@ def test_a_plane_face_going_on_to_the_table_leaves_the_run_down_to_it_untouched(
     slope = math.radians(30)
     m, rows, cols, out = _left_near_table(*_side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope))))
     assert np.all(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
-    area = m.untouched_below(rows, cols, out, 0.0, math.radians(65))
-    npt.assert_allclose(area, 0.04 * 0.01 / math.tan(slope), rtol=0.25)
-    assert m.untouched_below(rows, cols, out, 0.0, math.radians(25)) == 0.0  # steeper than the pad may tilt
+    area = _below(m, rows, cols, out)
+    # less the first 2 mm of the face below the frontier's samples, which they cover
+    npt.assert_allclose(area, 0.04 * (0.01 / math.tan(slope) - 0.002 * math.cos(slope)), rtol=0.25)
+    assert _below(m, rows, cols, out, steep_deg=25) == 0.0  # steeper than the pad may tilt
     # a pad reaching 10 mm from the contact lying on that face has no corner at the table: the
     # table did not stop it there
-    assert m.untouched_below(rows, cols, out, 0.0, math.radians(65), reach_m=0.01) == 0.0
+    assert _below(m, rows, cols, out, reach_m=0.01) == 0.0
+
+
+def test_a_strip_of_contacts_near_the_foot_covers_the_band_around_it():
+    # the 30° face touched from z = 10 mm up, and a border's strip of contacts at z = 2 mm
+    slope = math.radians(30)
+    points, normals = _side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope)))
+    m, rows, cols, out = _left_near_table(points, normals)
+    before = _below(m, rows, cols, out)
+    y = np.linspace(-0.02, 0.02, 41)
+    strip = np.column_stack((np.full_like(y, -0.008 / math.tan(slope)), y, np.full_like(y, 0.002)))
+    m.samples = np.vstack((points, strip))
+    after = _below(m, rows, cols, out)
+    # 17.3 mm of run: 1.7 mm below the frontier, and 1.7 mm either side of the strip, covered
+    npt.assert_allclose(after, 0.04 * (0.01 / math.tan(slope) - 3 * 0.002 * math.cos(slope)), rtol=0.25)
+    assert before - after > 0.04 * 0.003
 
 
 def test_a_level_top_far_above_the_table_leaves_nothing_counted_below_it():
     # a box's top, 40 mm above the table: a pad lying on it never meets the table; where the table
     # stopped it, the pad had rolled over an edge onto a side steeper than anything touched
     m, rows, cols, out = _left_near_table(*_side(lambda x: (np.full_like(x, 0.04), np.zeros_like(x))))
-    assert m.untouched_below(rows, cols, out, 0.0, math.radians(65), reach_m=0.057) == 0.0
+    assert _below(m, rows, cols, out, reach_m=0.057) == 0.0
 
 
 def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it():
@@ -128,7 +149,7 @@ def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it()
 
     m, rows, cols, out = _left_near_table(*_side(rounded))
     assert not np.any(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
-    assert m.untouched_below(rows, cols, out, 0.0, math.radians(65)) == 0.0
+    assert _below(m, rows, cols, out) == 0.0
 
 
 def test_a_stall_at_the_rim_of_a_hollow_narrower_than_the_pad_is_a_valley_but_not_at_the_outer_rim():

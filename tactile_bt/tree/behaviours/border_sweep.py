@@ -55,13 +55,16 @@ _K_HOLD = 5.0
 _K_TURN = 3.0
 #: The pad starts sweeping this far (m) inside the run's ends, so that its border row covers them.
 _END_INSIDE_M = 0.01
-#: The pad holds still this long (s) after touching, for the pressure to settle, before it sweeps.
+#: Each pass holds still until it has touched this long (s), for the pressure to settle, before it
+#: sweeps, and does not end before.
 _SETTLE_S = 0.5
 #: The pad lies on the face to be swept while its centre is this close (m) to the face's plane.
 _ON_FACE_M = 0.01
 #: A level pad's body touches, not its border, when the centre of pressure lies this far (m) inside
 #: the border row.
 _BODY_M = 0.01
+#: Down at the table touching nothing, a valley's pass goes this many times faster.
+_CARVING = 2.0
 #: Fastest roll (rad/s) of the lean about the border.
 _MAX_LEAN_RPS = 0.3
 #: Only the imprint within this distance (m) of the border facing the face is recorded.
@@ -91,7 +94,7 @@ class BorderSweep(Reapproach):
 
     uses = frozenset({"cop", "pressure"})
 
-    sweep_speed_mps = Parameter(0.015, bound=POSITIVE, doc="Speed along the sweep (m/s).")
+    sweep_speed_mps = Parameter(0.02, bound=POSITIVE, doc="Speed along the sweep (m/s).")
     sweep_pressure_pa = Parameter(1000.0, bound=POSITIVE,
                                   doc="Pressure the border row is held at while sweeping (Pa).")
     kp = Parameter(1.0e-5, bound=POSITIVE, unit="m/s/Pa",
@@ -207,7 +210,8 @@ class BorderSweep(Reapproach):
         if not self._sweeping:
             self._phase = "approaching with the border"
             if touching:
-                self._sweeping, self._last_contact, self._touched = True, self.now, self.now
+                self._sweeping, self._last_contact, self._pass_contact_s = True, self.now, 0.0
+                self._carved = None
             elif self._approached > self.standoff_m + self.approach_m or self._at_table():
                 self._finish("nothing")
                 return Status.RUNNING
@@ -226,20 +230,25 @@ class BorderSweep(Reapproach):
         elif f.in_contact and inside > _BODY_M:  # a level pad's body on the surface: not the border
             self._finish("body")
             return Status.RUNNING
-        if f.in_contact:
+        carving = not f.in_contact and self._at_table()  # a valley's border down at the table, touching nothing
+        if f.in_contact or carving:
             self._last_contact = self.now
-            if inside <= self.pad.pitch:
-                self._record(f)
+            self._pass_contact_s += self.dt
+        if f.in_contact and inside <= self.pad.pitch:
+            self._record(f)
+        elif carving:
+            self._carve()
         line = self._line + self._step * self._pass
         forward = self._pass % 2 == 0  # passes go to and fro
         along = self._first + float((self._border() - line) @ self._along)  # from the sweep's start
-        settled = self.now - self._touched >= _SETTLE_S
+        settled = self._pass_contact_s >= _SETTLE_S  # this pass has touched long enough to sweep on
         done = along >= self._s_end if forward else along <= self._first
         if self.now - self._last_contact > self.lost_s:
             self._finish("swept")
             return Status.RUNNING
         if done and settled:
             self._pass += 1
+            self._pass_contact_s = 0.0
             if self._pass >= self._passes:
                 self._finish("swept")
                 return Status.RUNNING
@@ -250,7 +259,7 @@ class BorderSweep(Reapproach):
             press = self.approach_speed_mps  # find the surface again
         if press > 0 and self._at_table() and self._press[2] < 0:
             press = 0.0  # never down onto the table
-        speed = self.sweep_speed_mps if settled else 0.0
+        speed = (_CARVING * self.sweep_speed_mps if carving else self.sweep_speed_mps) if settled else 0.0
         self._hold(press, speed if forward else -speed, lean)
         self._feedback = None
         return Status.RUNNING
@@ -259,6 +268,20 @@ class BorderSweep(Reapproach):
         """Whether the pad's lowest corner is within ``table_clearance_m`` of the table, coming
         down towards it (a valley's floor, not the table, is what the pad looks for)."""
         return self._kind != "foot" and self._corner_at_table()
+
+    def _carve(self) -> None:
+        """Note the cells under the border's edge, down at the table and touching nothing, in
+        the job's ``empty`` (world xy, m): no surface above the table there. Every millimetre of
+        the edge's travel."""
+        border = self._border()
+        if self._carved is not None and np.linalg.norm(border - self._carved) < 1e-3:
+            return
+        self._carved = border
+        facing = self._facing()
+        edge = self.pose[:3, :3] @ np.array([-facing[1], facing[0], 0.0])
+        half = self.pad.half_width_m
+        points = border + np.linspace(-half, half, int(2 * half / 0.002) + 1)[:, None] * edge
+        self._job.setdefault("empty", []).append(points[:, :2])
 
     def _border(self) -> np.ndarray:
         """World position (m) of the middle of the pad's border edge on the side that touches."""

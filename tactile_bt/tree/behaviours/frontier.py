@@ -74,6 +74,9 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
+#: A band the table left at the foot of plane faces larger than this share of the touched area is
+#: swept (when sweeps are on) even when the scan could end without it.
+_BAND_WORTH = 0.01
 #: Ends an arm holding a joint at its limit explains: the pad stopped, or lost the contact,
 #: because the arm could not follow (its reach), not because the surface ends.
 _HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
@@ -484,16 +487,21 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()
                     if self.unexplained_m() > self.max_unexplained_m:
+                        # sweeps first: a valley's sides often hold the stalls at its rim too
+                        if self._asked_sweep(point, f"{left} ({counts})"):
+                            return Status.FAILURE
                         job = self._reapproach(point)
                         if job is not None:
                             x, y = job["frontier_xy"] * 1e3
                             self.feedback_message = (f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm: {left} "
                                                      f"({counts})")
                             return Status.FAILURE
-                        if self._asked_sweep(point, f"{left} ({counts})"):  # nothing left to re-approach
-                            return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
                         return self._verdict()
+                    # enough, but a band at the foot worth a sweep is still left: sweep it while sweeps last
+                    if self.below_m2 > _BAND_WORTH * self.map.touched_area() and self.below_m2 > 0 \
+                            and self._asked_sweep(point, f"{left} ({counts})"):
+                        return Status.FAILURE
                     self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"
                     return Status.SUCCESS
                 if self._retreat is not None and self._retreating(point):

@@ -26,6 +26,7 @@ import math
 import numpy as np
 from py_trees.common import Status
 
+from tactile_bt import defaults
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
 from tactile_bt.tree.blackboard import read_or, write
@@ -34,6 +35,8 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
 
 __all__ = ["FrontierLeft", "FRONTIER_LEFT_KEY"]
 
+#: Holes in the touched area up to this many times the pad's width across are swept with its border.
+_SWEPT_HOLES = 2.0
 #: Blackboard key of the frontier left (see :meth:`FrontierLeft.frontier_left`).
 FRONTIER_LEFT_KEY = "/scan/frontier_left"
 
@@ -47,7 +50,6 @@ class FrontierLeft:
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
     sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
-    valley_mask: np.ndarray | None = None
 
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE,
                                   doc="When no reachable frontier is left, the leaf succeeds only if at most this much "
@@ -99,14 +101,15 @@ class FrontierLeft:
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
-        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep, reach, face)
+        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep,
+                                         self._cloud.points, defaults.COVERAGE_RADIUS_M, reach, face)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
         # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
         # may be partly the table seen through a ring: the estimate errs towards failing)
-        self.valley_mask = self.map.valleys(min(self.pad.size_m)) if np.any(reason == VALLEY) else None
-        valley = float(np.count_nonzero(self.valley_mask)) * self.cell_m**2 if self.valley_mask is not None else 0.0
+        valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
+            if np.any(reason == VALLEY) else 0.0
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below + valley) if touched > 0 else 0.0
         self.below_m2 = below
@@ -167,8 +170,11 @@ class FrontierLeft:
         run = None
         if self.below_m2 > 0 and math.isfinite(foot_z):
             run = self.sweeps.choose(foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z), point[:2])
-        if run is None and self.valley_m2 > 0:
-            run = self.sweeps.choose(valley_sides(self.map, self.valley_mask), point[:2])
+        if run is None:  # every hole in the touched area up to twice the pad across, whether an attempt has
+            # failed at its rim or not: a flat pad bridges the narrower, and the sides of the wider may be
+            # too steep or too curved for it (the inside of a ring)
+            holes = self.map.valleys(_SWEPT_HOLES * min(self.pad.size_m))
+            run = self.sweeps.choose(valley_sides(self.map, holes), point[:2])
         if run is None:
             return None
         job = {"sweep": run, "foot_z": foot_z, "top_z": float(np.nanmax(self.map.z_max)),
@@ -203,6 +209,8 @@ class FrontierLeft:
         job["applied"] = True
         if "sweep" in job:
             self.sweeps.results.append(str(job["result"]))
+            if job.get("empty"):  # where the border went down to the table touching nothing
+                self.map.mark_empty(np.vstack(job["empty"]))
             self.ends[f"{job['sweep'].get('kind', 'border')} sweep: {job['result']}"] += 1
             return
         result = self.plan.apply(self.map, job)
