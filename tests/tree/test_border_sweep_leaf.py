@@ -45,3 +45,51 @@ def test_the_planner_s_verdict_fails_it_at_once():
     h = LeafHarness(BorderSweep(), pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
     h.set("/scan/reapproach", {"verdict": "no reachable frontier left, but ..."})
     assert h.tick(make_features()) == Status.FAILURE
+
+
+DT = 1.0 / 250.0
+LEDGE_Z = 0.02  # a ledge's top for x < 0, 20 mm up; beyond it, down to the table at z = 0
+
+
+def _ledge_features(T, pad):
+    """2 kPa per mm that the pad's border and corner points over the ledge lie below its top,
+    the centre of pressure among them; no contact elsewhere."""
+    half = pad.half_width_m
+    local = np.array([(x, y, 0.0) for x in (-half, 0.0, half) for y in (-half, 0.0, half) if x or y])
+    world = local @ T[:3, :3].T + T[:3, 3]
+    depth = np.where(world[:, 0] < 0.0, LEDGE_Z - world[:, 2], 0.0)
+    touching = depth > 0
+    if not np.any(touching):
+        return make_features(in_contact=False)
+    cop = local[touching][:, :2].mean(axis=0)
+    return make_features(cop_px=pad.m_to_px(cop), pressure=float(1e6 * depth.max()))
+
+
+def test_passes_step_into_a_hollow_and_where_the_border_reaches_the_table_touching_nothing_it_is_empty():
+    leaf = BorderSweep()
+    h = LeafHarness(leaf, dt=DT, pose=make_pose(DOWN, np.array([-0.03, 0.0, 0.05])))
+    h.set("/setup/table_z_m", 0.0)
+    side = {"kind": "valley", "out": np.array([-1.0, 0.0]), "along": np.array([0.0, 1.0]),
+            "start": np.array([-0.001, -0.03]), "length_m": 0.06, "width_m": 0.02, "step_m": 0.005,
+            "rim_z": LEDGE_Z, "rim_rise": 0.0, "normal": np.array([0.0, 0.0, 1.0]), "centre": np.array([-0.001, 0.0])}
+    job = {"sweep": side, "foot_z": 0.002, "top_z": LEDGE_Z,
+           "home": (np.array([-0.03, 0.0, LEDGE_Z]), np.array([0.0, 0.0, 1.0]))}
+    h.set("/scan/reapproach", job)
+    T = make_pose(DOWN, np.array([-0.03, 0.0, 0.05]))
+    status, lowest = Status.RUNNING, np.inf
+    for _ in range(40000):
+        status = h.tick(_ledge_features(T, leaf.pad))
+        if status != Status.RUNNING:
+            break
+        twist = np.asarray(h.command.twist(), dtype=float)
+        R = T[:3, :3]
+        T = T.copy()
+        T[:3, 3] += R @ twist[:3] * DT
+        T[:3, :3] = Rotation.from_rotvec(R @ twist[3:] * DT).as_matrix() @ R
+        h.set_pose(T)
+        lowest = min(lowest, float((np.array([[s * 0.04, t * 0.04, 0.0] for s in (-1, 1) for t in (-1, 1)])
+                                    @ T[:3, :3].T + T[:3, 3])[:, 2].min()))
+    assert status == Status.SUCCESS and job["result"] == "swept"
+    empty = np.vstack(job["empty"])
+    assert len(empty) and np.all(empty[:, 0] > -0.002)  # beyond the ledge's edge, never on it
+    assert lowest > 0.0025  # the pad came down towards the table no closer than its 3 mm
