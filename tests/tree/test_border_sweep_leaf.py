@@ -8,7 +8,7 @@ import pytest
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.control.spatial import make_pose
+from tactile_bt.control.spatial import exp_twist, make_pose
 from tactile_bt.testing import LeafHarness, make_features
 from tactile_bt.tree.behaviours import BorderSweep
 from tactile_bt.tree.behaviours.border_sweep import level_facing
@@ -81,11 +81,7 @@ def test_passes_step_into_a_hollow_and_where_the_border_reaches_the_table_touchi
         status = h.tick(_ledge_features(T, leaf.pad))
         if status != Status.RUNNING:
             break
-        twist = np.asarray(h.command.twist(), dtype=float)
-        R = T[:3, :3]
-        T = T.copy()
-        T[:3, 3] += R @ twist[:3] * DT
-        T[:3, :3] = Rotation.from_rotvec(R @ twist[3:] * DT).as_matrix() @ R
+        T = T @ exp_twist(np.asarray(h.command.twist(), dtype=float), DT)
         h.set_pose(T)
         lowest = min(lowest, float((np.array([[s * 0.04, t * 0.04, 0.0] for s in (-1, 1) for t in (-1, 1)])
                                     @ T[:3, :3].T + T[:3, 3])[:, 2].min()))

@@ -196,16 +196,7 @@ class BorderSweep(Reapproach):
         f = self.features
         touching = f.in_contact and f.pressure >= self.pressure_pa
         if self._waypoints:
-            position, R, phase = self._waypoints[0]
-            self._phase = phase
-            if touching and phase != "lifting off":  # something in the way: not the surface looked for
-                self._finish("nothing")
-            elif self._move(position, R):
-                self._waypoints.pop(0)
-                self._deadline = self.now + self.move_s
-                self._progress = (math.inf, self.now)
-            elif self._out_of_reach():
-                self._finish("reach")
+            self._next_waypoint(touching, "nothing")  # something in the way: not the surface looked for
             return Status.RUNNING
         if not self._sweeping:
             self._phase = "approaching with the border"

@@ -215,16 +215,7 @@ class Reapproach(TactileBehaviour):
         f = self.features
         touching = f.in_contact and f.pressure >= self.pressure_pa
         if self._waypoints:
-            position, R, phase = self._waypoints[0]
-            if touching and phase != "lifting off":  # touched on the way: the surface is here
-                self._finish("surface")
-            elif self._move(position, R):
-                self._waypoints.pop(0)
-                self._deadline = self.now + self.move_s
-                self._progress = (math.inf, self.now)
-            elif self._out_of_reach():
-                self._finish("reach")
-            self._phase = phase
+            self._next_waypoint(touching, "surface")  # touched on the way: the surface is here
         elif not self._done:
             self._phase = "approaching home" if self._going_home else "approaching"
             if touching:
@@ -251,6 +242,20 @@ class Reapproach(TactileBehaviour):
         if not math.isfinite(self._table_z):
             return False
         return lowest_corner(self.pose, self.pad, self.corner_margin_m)[2] < self._table_z + self.table_clearance_m
+
+    def _next_waypoint(self, touching: bool, touched: str) -> None:
+        """Move on towards the first waypoint: the result ``touched`` when the pad touches on
+        the way (lifting off aside), ``reach`` when the arm does not get it there."""
+        position, R, phase = self._waypoints[0]
+        self._phase = phase
+        if touching and phase != "lifting off":
+            self._finish(touched)
+        elif self._move(position, R):
+            self._waypoints.pop(0)
+            self._deadline = self.now + self.move_s
+            self._progress = (math.inf, self.now)
+        elif self._out_of_reach():
+            self._finish("reach")
 
     def _out_of_reach(self) -> bool:
         """Whether the current move has run out of time or come no nearer for ``_STUCK_S``."""
