@@ -154,6 +154,22 @@ def success_reason(root: py_trees.behaviour.Behaviour) -> str:
     return ""
 
 
+def running_reason(root: py_trees.behaviour.Behaviour, duration_s: float) -> str:
+    """Why a mission whose time ran out had not ended, for a tree that ends its task by itself
+    (one of its nodes ``reports_success``, :func:`success_reason`): its duration and what that
+    node, or else the deepest running node that says anything, was doing (``"600 s of mission time ran out while
+    frontier_guidance was running: sliding to the frontier"``). "" for a tree that runs for the
+    mission's time (a servo experiment): running out of it is its end."""
+    nodes = list(root.iterate())
+    tasks = [node for node in nodes if getattr(node, "reports_success", False)]
+    if not tasks:
+        return ""
+    for node in tasks + nodes:  # the task's own nodes first, then children before their parents
+        if node.status == Status.RUNNING and node.feedback_message:
+            return f"{duration_s:g} s of mission time ran out while {node.name} was running: {node.feedback_message}"
+    return f"{duration_s:g} s of mission time ran out"
+
+
 def root_outcome(root: py_trees.behaviour.Behaviour) -> tuple[str, str] | None:
     """``(status, reason)`` once the tree's root has ended (``success`` with the reason of
     :func:`success_reason`, ``failure`` with that of :func:`failure_reason`), else None: the one

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from tactile_bt.mission.joints import held_at_end, saturation_runs, saturation_warnings
+from tactile_bt.mission.loop import running_reason
 from tactile_bt.mission.metrics import controlled_feature_metrics, force_figures, path_error
 from tactile_bt.mission.report import FeatureMetrics, MissionReport
 
@@ -127,6 +128,8 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         reason = f"{reason}; {held}"
     if status == "completed" and not np.any(arrays["in_contact"] == 1):
         status, reason = "failure", "no contact was made"
+    elif status == "completed" and not reason:  # a task that had not ended says what it was doing
+        reason = running_reason(tree.root, round(float(sim_time_s), 6))
     scene_file = getattr(scene, "file", scene) or ""
     summary = MissionReport(
         tree=str(getattr(tree, "source", getattr(tree.root, "name", "tree"))),

@@ -1,0 +1,38 @@
+"""A mission whose time runs out says why, when its tree ends its task by itself."""
+
+import py_trees
+from py_trees.common import Status
+
+from tactile_bt.mission.loop import running_reason, tick
+
+
+class _Searching(py_trees.behaviour.Behaviour):
+    reports_success = True  # a task that ends by itself, as frontier_guidance's scan
+
+    def update(self):
+        self.feedback_message = "sliding to the frontier"
+        return Status.RUNNING
+
+
+class _Holding(py_trees.behaviour.Behaviour):
+    def update(self):
+        self.feedback_message = "error pressure_pa=+64.3"
+        return Status.RUNNING
+
+
+def _ticked(*children):
+    root = py_trees.composites.Parallel("root", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                        children=list(children))
+    tree = py_trees.trees.BehaviourTree(root)
+    tick(tree)
+    return root
+
+
+def test_a_task_still_running_when_the_time_runs_out_names_the_time_and_what_it_was_doing():
+    root = _ticked(_Searching("frontier_guidance"), _Holding("force_hold"))
+    assert running_reason(root, 600.0) == (
+        "600 s of mission time ran out while frontier_guidance was running: sliding to the frontier")
+
+
+def test_a_tree_that_runs_for_the_mission_s_time_ends_without_a_reason():
+    assert running_reason(_ticked(_Holding("force_hold")), 1.5) == ""
