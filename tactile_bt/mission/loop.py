@@ -156,18 +156,25 @@ def success_reason(root: py_trees.behaviour.Behaviour) -> str:
 
 def running_reason(root: py_trees.behaviour.Behaviour, duration_s: float) -> str:
     """Why a mission whose time ran out had not ended, for a tree that ends its task by itself
-    (one of its nodes ``reports_success``, :func:`success_reason`): its duration and what that
-    node, or else the deepest running node that says anything, was doing (``"600 s of mission time ran out while
+    (one of its nodes ``reports_success``, :func:`success_reason`): its duration and what the
+    deepest running node that says anything was doing (``"600 s of mission time ran out while
     frontier_guidance was running: sliding to the frontier"``). "" for a tree that runs for the
     mission's time (a servo experiment): running out of it is its end."""
     nodes = list(root.iterate())
-    tasks = [node for node in nodes if getattr(node, "reports_success", False)]
-    if not tasks:
+    if not any(getattr(node, "reports_success", False) for node in nodes):
         return ""
-    for node in tasks + nodes:  # the task's own nodes first, then children before their parents
-        if node.status == Status.RUNNING and node.feedback_message:
-            return f"{duration_s:g} s of mission time ran out while {node.name} was running: {node.feedback_message}"
-    return f"{duration_s:g} s of mission time ran out"
+
+    def depth(node) -> int:
+        d = 0
+        while node.parent is not None:
+            node, d = node.parent, d + 1
+        return d
+
+    running = [node for node in nodes if node.status == Status.RUNNING and node.feedback_message]
+    if not running:
+        return f"{duration_s:g} s of mission time ran out"
+    node = max(running, key=depth)  # the first of the deepest: the task's own step, not a guard beside it
+    return f"{duration_s:g} s of mission time ran out while {node.name} was running: {node.feedback_message}"
 
 
 def root_outcome(root: py_trees.behaviour.Behaviour) -> tuple[str, str] | None:

@@ -36,3 +36,11 @@ def test_a_task_still_running_when_the_time_runs_out_names_the_time_and_what_it_
 
 def test_a_tree_that_runs_for_the_mission_s_time_ends_without_a_reason():
     assert running_reason(_ticked(_Holding("force_hold")), 1.5) == ""
+
+
+def test_the_step_the_task_is_on_is_named_not_a_guard_running_beside_it():
+    task = py_trees.composites.Sequence("task", memory=True, children=[_Searching("frontier_guidance")])
+    step = py_trees.composites.Sequence("retry", memory=True, children=[_Holding("border_sweep")])
+    root = _ticked(_Holding("adapt_force_target"), py_trees.composites.Parallel(
+        "scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(), children=[task, step]))
+    assert running_reason(root, 60.0).startswith("60 s of mission time ran out while frontier_guidance was running")
