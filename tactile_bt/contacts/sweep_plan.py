@@ -60,8 +60,9 @@ def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float)
     Returns
     -------
     list of dict
-        One per run of at least five cells and 10 mm (fewer are a corner's), longest first: ``out`` (unit world xy, away from the object), ``along``
-        (unit world xy along the foot), ``normal`` (the face's mean outward normal), ``start``
+        One per run of at least five cells and 10 mm (fewer are a corner's), longest first:
+        ``kind`` ("foot"), ``out`` (unit world xy, away from the object), ``along`` (unit world
+        xy along the foot), ``normal`` (the face's mean outward normal), ``start``
         (world xy, m, of the foot at ``foot_z`` at the run's first end), ``length_m`` and
         ``centre`` (world xy of its middle).
     """

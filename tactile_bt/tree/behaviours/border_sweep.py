@@ -1,5 +1,5 @@
 """Sweep with the border of the pad where its face cannot lie: the foot of a plane face just
-above the table, and the sides of a valley narrower than the pad.
+above the table, and the sides of a hollow the flat pad bridges.
 
 A pad lying on a face that runs down to the table stops with its lowest border above the table
 (``table_clearance`` and the frontier planner see to that), and a band along the foot stays
@@ -8,24 +8,31 @@ pad can slide towards the face until its border touches it there, every corner e
 the table. A flat pad bridges a hollow narrower than itself and leaves its sides untouched;
 tilted about the hollow's axis, its body over the touched rim, it can touch them with its border
 row alone. The frontier planner (``frontier_guidance: {max_sweeps: ...}``) writes such a sweep
-to the re-approach key when that band or those hollows are all that keep the scan from its
-coverage, ``{"sweep": run, "foot_z": z, "top_z": z, "home": (point, normal)}`` (a run of foot
-or a valley's side from :mod:`tactile_bt.contacts.sweep_plan`, world, m), and fails for the
-``retry`` to carry it out.
+to the re-approach key, ``{"sweep": run, "foot_z": z, "top_z": z, "home": (point, normal)}`` (a
+run of foot or a hollow's side from :mod:`tactile_bt.contacts.sweep_plan`, world, m), and fails
+for the ``retry`` to carry it out.
 
-The ``border_sweep`` leaf then lifts the pad off, rises above everything touched, turns the pad
-(level for a foot; for a valley tilted about its axis until the body clears what was touched
-beside it) with the side nearest its present heading facing the surface, and approaches: a foot
-sideways from beyond it at ``foot_z``, a valley from above. Once the border row touches (the
-pressure passes ``pressure_pa``), it sweeps along at ``sweep_speed_mps``, holding the pad's
-orientation and its place across the sweep, and servoing its distance to the surface on the
-pressure (``sweep_pressure_pa``); a valley's side is swept in passes ``step_m`` apart from the
-hollow's edge towards its middle. Every settled imprint of the border row goes into the mission's
-contact cloud with the surface's estimated normal. At the end, or when the surface ends under the
-border (no contact for ``lost_s``), or the contact leaves the border (the body touches), it
-writes ``"result": "swept"`` (``reach`` when the arm could not get there, ``nothing`` when no
-surface was found, ``body`` when the pad's body touched first) and goes back to the touched
-point it left, as ``reapproach`` does; exploring goes on from there.
+The ``border_sweep`` leaf then lifts the pad off, rises above everything touched (or, lying on
+the face whose foot it is to sweep, turns level just above it and glides down along it), turns
+the pad with the side nearest its present heading facing the surface, and approaches:
+
+- a foot: level, sideways from beyond it at ``foot_z``; it sweeps along the foot holding its
+  height and orientation, its distance to the face servoed on the border row's pressure
+  (``sweep_pressure_pa``);
+- a hollow's side: tilted about the hinge (z × the direction of its body) ``lean_rad`` more
+  steeply than the rim, from above; it sweeps along the hollow in passes ``step_m`` apart from
+  its edge towards its middle, pressing down on the pressure and leaning about its border's edge
+  (``lean_gain``) until the row beside the border just carries, so that the imprint lies on the
+  surface. It never presses down once its lowest corner is within ``table_clearance_m`` of the
+  table; where its border is down there touching nothing, the cells it passes are noted in the
+  job's ``empty`` (no surface above the table there).
+
+Every settled imprint of the border row goes into the mission's contact cloud with the surface's
+estimated normal. At the end, or when the surface ends under the border (no contact for
+``lost_s``), it writes ``"result": "swept"`` (``reach`` when the arm could not get there,
+``nothing`` when no surface was found, ``tilt`` when a hollow needs the pad steeper than
+``max_tilt_rad``, ``body`` when a level pad's body touched instead of its border) and goes back
+to the touched point it left, as ``reapproach`` does; exploring goes on from there.
 
 It belongs beside ``reapproach`` in the sequence before ``touch``: each leaf carries out its
 own kind of job and lets the other pass.

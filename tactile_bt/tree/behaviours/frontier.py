@@ -33,7 +33,10 @@ than the pad (a valley it bridges), and except that a stall, a lost contact or a
 while the arm held a joint at its position limit (within the last second, from
 ``/robot/joints_held``, :data:`tactile_bt.tree.blackboard.JOINTS_HELD`) is the arm's reach,
 which does. It succeeds only when at most ``max_unexplained_m`` is left
-unexplained, and fails otherwise, its message naming what is left. It knows nothing of the
+unexplained, and fails otherwise, its message naming what is left. Before it re-approaches, and
+before it ends while the band the table left at the foot of plane faces is large, it asks for a
+border sweep (``max_sweeps``, :mod:`tactile_bt.tree.behaviours.border_sweep`) of that foot or of
+the sides of a hollow in the touched area the same way. It knows nothing of the
 object's size, pose or shape beyond what the pad has touched.
 
 Layer: tree.
