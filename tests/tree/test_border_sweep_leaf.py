@@ -89,3 +89,17 @@ def test_passes_step_into_a_hollow_and_where_the_border_reaches_the_table_touchi
     empty = np.vstack(job["empty"])
     assert len(empty) and np.all(empty[:, 0] > -0.002)  # beyond the ledge's edge, never on it
     assert lowest > 0.0025  # the pad came down towards the table no closer than its 3 mm
+
+
+def test_its_message_is_the_sweep_s_phase_after_a_tick_with_nothing_to_do():
+    leaf = BorderSweep()
+    h = LeafHarness(leaf, dt=DT, pose=make_pose(DOWN, np.array([-0.03, 0.0, 0.05])))
+    h.set("/setup/table_z_m", 0.0)
+    assert h.tick(make_features(in_contact=False)) == Status.SUCCESS  # nothing pending yet
+    side = {"kind": "valley", "out": np.array([-1.0, 0.0]), "along": np.array([0.0, 1.0]),
+            "start": np.array([-0.001, -0.03]), "length_m": 0.06, "width_m": 0.02, "step_m": 0.005,
+            "rim_z": LEDGE_Z, "rim_rise": 0.0, "normal": np.array([0.0, 0.0, 1.0]), "centre": np.array([-0.001, 0.0])}
+    h.set("/scan/reapproach", {"sweep": side, "foot_z": 0.002, "top_z": LEDGE_Z,
+                               "home": (np.array([-0.03, 0.0, LEDGE_Z]), np.array([0.0, 0.0, 1.0]))})
+    assert h.tick(make_features(in_contact=False)) == Status.RUNNING
+    assert leaf.feedback_message in ("lifting off", "rising", "moving over", "lowering to the standoff")

@@ -200,6 +200,7 @@ class BorderSweep(Reapproach):
     def update(self) -> Status:
         if self._verdict or self._job is None or self._going_home or self._done:
             return super().update()
+        self._feedback = None  # the message says the phase (describe), not an earlier ending's
         f = self.features
         touching = f.in_contact and f.pressure >= self.pressure_pa
         if self._waypoints:
@@ -259,7 +260,6 @@ class BorderSweep(Reapproach):
             press = 0.0  # never down onto the table
         speed = (_CARVING * self.sweep_speed_mps if carving else self.sweep_speed_mps) if settled else 0.0
         self._hold(press, speed if forward else -speed, lean)
-        self._feedback = None
         return Status.RUNNING
 
     def _at_table(self) -> bool:
