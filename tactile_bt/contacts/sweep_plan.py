@@ -174,13 +174,12 @@ def _sides_along(m, touched: np.ndarray, xy: np.ndarray, mid: np.ndarray, along:
 class SweepPlan:
     """The border sweeps of one map: the runs of foot and the valley sides swept so far (one
     whose middle lies within ``radius_m`` of a swept one's and faces the same way is not swept
-    again) and what each found."""
+    again)."""
 
     def __init__(self, radius_m: float = 0.03, most: int = 12) -> None:
         self.radius_m = float(radius_m)
         self.most = int(most)
         self.swept: list[dict] = []
-        self.results: list[str] = []
 
     def choose(self, candidates: list[dict], from_xy: np.ndarray) -> dict | None:
         """The candidate (:func:`foot_runs`, :func:`valley_sides`) nearest to ``from_xy``

@@ -147,7 +147,6 @@ class BorderSweep(Reapproach):
         top_z = float(self._job.get("top_z", 0.0))
         if self._kind == "foot":
             tilt, z = 0.0, float(self._job["foot_z"])
-            self._foot_z = z
             self._press = -self._out  # sideways onto the face
             self._passes, self._step = 1, np.zeros(3)
         else:  # steeper than the rim by lean_rad to start with; the lean servo sets it from there
@@ -161,13 +160,11 @@ class BorderSweep(Reapproach):
         turn = Rotation.from_rotvec(-tilt * self._hinge).as_matrix()
         self._R = turn @ level
         self._line = np.array([*border, z])  # the border's middle on the first pass's line
-        self._origin = self._line + turn @ self._out * reach  # the pad centre there
         self._pass = 0
-        standoff = self._origin - self._press * self.standoff_m
+        standoff = self._line + turn @ self._out * reach - self._press * self.standoff_m  # the pad centre
         self._route(standoff, self._R, top_z)
         if self._kind == "foot":
             self._low_route(standoff, length)
-        self._approached = 0.0
         self._last_contact = math.inf
 
     def _low_route(self, standoff: np.ndarray, length: float) -> None:
@@ -175,16 +172,16 @@ class BorderSweep(Reapproach):
         along it to the standoff, instead of moving over high above everything touched (a
         foot near the arm's base may be out of its reach from there)."""
         T = self.pose
-        foot = self._origin - self._out * self.pad.half_width_m  # on the foot, level with the pad's border
+        foot = self._line  # on the foot, level with the pad's border
         into = float((foot - T[:3, 3]) @ self._out)  # how far the pad is inside the foot (m)
-        along = self._first + float((T[:3, 3] - self._origin) @ self._along)
+        along = self._first + float((T[:3, 3] - foot) @ self._along)
         n = self._normal
         on_face = abs(float((T[:3, 3] - foot) @ n)) < _ON_FACE_M
         if into <= 0 or not on_face or not -_END_INSIDE_M <= along <= length + _END_INSIDE_M:
             return  # not on this face: the way over everything touched
         slope = math.hypot(n[0], n[1]) / max(n[2], 1e-6)  # the face's rise per m inwards
         border = into + self.pad.half_width_m  # the level pad's inner border, inside the foot (m)
-        level_z = self._foot_z + border * slope + self.clearance_m
+        level_z = foot[2] + border * slope + self.clearance_m
         if level_z < T[2, 3]:
             level_z = T[2, 3]
         lifted = self._waypoints[0]

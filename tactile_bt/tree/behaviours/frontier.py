@@ -502,7 +502,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
                         return self._verdict()
                     # enough, but a band at the foot worth a sweep is still left: sweep it while sweeps last
-                    if self.below_m2 > _BAND_WORTH * self.map.touched_area() and self.below_m2 > 0 \
+                    if self.below_m2 > _BAND_WORTH * self.map.touched_area() \
                             and self._asked_sweep(point, f"{left} ({counts})"):
                         return Status.FAILURE
                     self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"

@@ -27,8 +27,8 @@ import numpy as np
 from py_trees.common import Status
 
 from tactile_bt import defaults
-from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
+from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
@@ -42,9 +42,9 @@ FRONTIER_LEFT_KEY = "/scan/frontier_left"
 
 
 class FrontierLeft:
-    """The frontier left and the re-approaches of a frontier planner (a mixin; the planner has
-    ``map``, ``plan``, ``left``, ``coverage``, ``below_m2``, ``valley_m2`` and its table and tilt
-    settings)."""
+    """The frontier left, the re-approaches and the border sweeps of a frontier planner (a mixin;
+    the planner has ``map``, ``plan``, ``left``, ``coverage``, ``below_m2``, ``valley_m2``, its
+    contact cloud ``_cloud`` and its table and tilt settings)."""
 
     valley_m2 = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
@@ -208,7 +208,6 @@ class FrontierLeft:
             return
         job["applied"] = True
         if "sweep" in job:
-            self.sweeps.results.append(str(job["result"]))
             if job.get("empty"):  # where the border went down to the table touching nothing
                 self.map.mark_empty(np.vstack(job["empty"]))
             self.ends[f"{job['sweep'].get('kind', 'border')} sweep: {job['result']}"] += 1
