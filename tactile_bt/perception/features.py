@@ -152,6 +152,8 @@ class ContactFeatures:
         with one region.
     others_tactels : int
         Number of those tactels.
+    others_cop_px : tuple of float
+        Their centre of pressure ``(x, y)`` in tactels; ``(nan, nan)`` with one region.
     """
 
     in_contact: bool
@@ -167,6 +169,7 @@ class ContactFeatures:
     image: np.ndarray | None = field(default=None, repr=False, compare=False)
     others_force: float = 0.0
     others_tactels: int = 0
+    others_cop_px: tuple[float, float] = (math.nan, math.nan)
 
     @property
     def cop(self) -> np.ndarray:
@@ -178,6 +181,20 @@ class ContactFeatures:
         """:attr:`cop` as two Python floats ``(x, y)`` in m (cheaper in per-cycle code)."""
         x, y = self.cop_px.tolist()
         return self.pad.xy_px_to_m(x, y)
+
+    @property
+    def load_cop_xy(self) -> tuple[float, float]:
+        """Centre of pressure of every contact region together ``(x, y)`` (m, sensor frame): the
+        force-weighted mean of :attr:`cop_xy` and the other regions' centre; :attr:`cop_xy` with
+        one region. Where a flat pad bridges a hollow, this point lies between its borders'
+        contacts, and it does not jump when the largest region changes sides."""
+        x, y = self.cop_xy
+        other = self.others_force
+        if not (self.others_tactels > 0 and other > 0.0):
+            return x, y
+        ox, oy = self.pad.xy_px_to_m(*self.others_cop_px)
+        share = other / (other + self.force)
+        return x + share * (ox - x), y + share * (oy - y)
 
     @classmethod
     def no_contact(
@@ -348,10 +365,10 @@ def extract(
     work = np.empty(3 * img.size + 1, dtype=np.int32)
     near_x, near_y = (math.nan, math.nan) if near_px is None else (float(near_px[0]), float(near_px[1]))
     ux, uy, half = (0.0, 0.0, math.inf) if window_px is None or near_px is None else map(float, window_px)
-    n_bad, changed, area, f, fw, mx, my, mxx, mxy, myy, load, loaded = largest_region(
+    n_bad, changed, area, f, fw, mx, my, mxx, mxy, myy, load, loaded, ox, oy = largest_region(
         img, float(threshold), _clip_limit(shape), clean, mask, work, near_x, near_y, ux, uy, half)
     if not (fw > 0.0) and area > 0 and half < math.inf:  # nothing of the region in the window
-        n_bad, changed, area, f, fw, mx, my, mxx, mxy, myy, load, loaded = largest_region(
+        n_bad, changed, area, f, fw, mx, my, mxx, mxy, myy, load, loaded, ox, oy = largest_region(
             img, float(threshold), _clip_limit(shape), clean, mask, work, near_x, near_y, ux, uy, math.inf)
     if changed:
         img = clean
@@ -372,8 +389,10 @@ def extract(
     # in_contact, force, area, pressure, cop_px, orientation, method, mask, invalid_tactels, pad,
     # image: positional, a third cheaper than by keyword, once per cycle
     pressure = f / (area * pitch * pitch) if near_px is None or loaded == area else load / (loaded * pitch * pitch)
+    others = load - f if loaded > area else 0.0
+    others_cop = (ox / others, oy / others) if others > 0.0 else (math.nan, math.nan)
     return ContactFeatures(True, f, area, pressure, np.array((cx, cy)), angle, method, mask, n_bad, pad, img,
-                           max(load - f, 0.0) if loaded > area else 0.0, loaded - area)
+                           max(others, 0.0), loaded - area, others_cop)
 
 
 def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:

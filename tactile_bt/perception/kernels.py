@@ -59,11 +59,12 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, alo
     Returns
     -------
     tuple
-        ``(invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded)``: the number of
-        NaN / infinite / negative tactels, whether ``clean`` differs from ``img``, the region's
-        tactel count, its force, and its sums of ``f``, ``f x``, ``f y``, ``f x²``, ``f xy``,
-        ``f y²`` (x = column, y = row) within the window; the force and tactel count of every
-        region together (the pad's load).
+        ``(invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded, ox, oy)``: the
+        number of NaN / infinite / negative tactels, whether ``clean`` differs from ``img``, the
+        region's tactel count, its force, and its sums of ``f``, ``f x``, ``f y``, ``f x²``,
+        ``f xy``, ``f y²`` (x = column, y = row) within the window; the force and tactel count of
+        every region together (the pad's load); the sums of ``f x`` and ``f y`` over the other
+        regions.
     """
     rows, cols = img.shape
     n = rows * cols
@@ -142,7 +143,7 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, alo
                     best, best_force = k, force
     area = 0
     loaded = 0
-    load = m1 = mw = mx = my = mxx = mxy = myy = 0.0
+    load = m1 = mw = mx = my = mxx = mxy = myy = ox = oy = 0.0
     windowed = half_length < np.inf
     for i in range(rows):
         y = float(i)
@@ -153,6 +154,9 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, alo
             if label > 0:
                 loaded += 1
                 load += clean[i, j]
+                if not inside:
+                    ox += clean[i, j] * float(j)
+                    oy += clean[i, j] * y
             if inside:
                 x = float(j)
                 v = clean[i, j]
@@ -166,7 +170,7 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, alo
                 mxx += v * (x * x)
                 mxy += v * (x * y)
                 myy += v * (y * y)
-    return invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded
+    return invalid, changed, area, m1, mw, mx, my, mxx, mxy, myy, load, loaded, ox, oy
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -175,4 +175,4 @@ class FeatureSmoother:
             pressure = f.pressure
         # Built field by field, in their order: dataclasses.replace costs three times as much.
         return ContactFeatures(f.in_contact, force, f.area, pressure, f.cop_px, angle, f.method, f.mask,
-                               f.invalid_tactels, f.pad, f.image, f.others_force, f.others_tactels)
+                               f.invalid_tactels, f.pad, f.image, f.others_force, f.others_tactels, f.others_cop_px)

@@ -375,3 +375,21 @@ def test_the_other_regions_are_everything_above_the_threshold_outside_the_larges
     assert f.others_tactels == counted[1]
     assert_allclose(f.others_force, counted[0], rtol=1e-12, atol=1e-12)
     assert other_contact(f) == ((f.others_force, f.others_tactels) if f.others_tactels else (0.0, 0))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_centre_of_every_region_together_is_the_force_weighted_centre_of_the_image(seed):
+    # two contacts on the pad (a flat pad bridging a hollow): the centre of pressure of both
+    # together is the force-weighted centre of every tactel above the threshold, whichever is
+    # the largest
+    rng = np.random.default_rng(seed)
+    image = blob_contact(rng.uniform((2, 2), (4, 13)), 0.7, 2.0) + blob_contact(rng.uniform((11, 2), (13, 13)), 0.7, 1.0)
+    f = extract(image, defaults.CONTACT_THRESHOLD_N)
+    assert f.others_tactels > 0
+    used = np.where(f.image > defaults.CONTACT_THRESHOLD_N, f.image, 0.0)
+    rows, cols = np.indices(used.shape)
+    expected = f.pad.xy_px_to_m(float((used * cols).sum() / used.sum()), float((used * rows).sum() / used.sum()))
+    assert_allclose(f.load_cop_xy, expected, atol=1e-9)
+    # one region: the largest region's own centre
+    single = extract(blob_contact((7.5, 7.5), 2.0, 2.0), defaults.CONTACT_THRESHOLD_N)
+    assert single.others_tactels == 0 and single.load_cop_xy == single.cop_xy
