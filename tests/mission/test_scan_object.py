@@ -292,6 +292,33 @@ def test_centre_to_and_roll_to_follow_their_key_every_cycle(cls, reference):
     assert np.any(first != 0)
 
 
+@pytest.mark.parametrize("cls, rows", [(CentreTo, [0, 1]), (RollTo, [3, 4])])
+def test_with_all_regions_a_pad_bridging_two_contacts_servos_their_common_centre(cls, rows):
+    # a flat pad on two rims of a hollow, the right one carrying a little more: the largest
+    # region changes sides with the load, and the leaf that servos the largest region's centre
+    # would swing from one border to the other; with all_regions it sees one centre between them
+    from tactile_bt.perception.synthetic import line_contact
+
+    def frame(left_share: float) -> np.ndarray:
+        left = line_contact((1.0, 7.5), math.pi / 2, 12.0, 0.8, 3.0 * left_share)
+        right = line_contact((14.0, 7.5), math.pi / 2, 12.0, 0.8, 3.0 * (1 - left_share))
+        return left + right
+
+    twists = {}
+    for all_regions in (False, True):
+        leaf = cls(target_key="/test/cop", kp=2.0, all_regions=all_regions)
+        h = LeafHarness(leaf)
+        h.set("/test/cop", (0.0, 0.0))
+        twists[all_regions] = []
+        for share in (0.52, 0.48):  # the larger load on the left, then on the right
+            for _ in range(25):
+                h.tick(frame=frame(share))
+            twists[all_regions].append(h.twist_of(leaf)[rows].copy())
+    swing = [float(np.linalg.norm(t[1] - t[0])) for t in (twists[False], twists[True])]
+    assert swing[1] < 0.2 * swing[0]
+    assert np.linalg.norm(twists[True][0]) < 0.2 * np.linalg.norm(twists[False][0])
+
+
 def test_square_to_slope_turns_an_edge_downhill():
     leaf = SquareToSlope(kp=2.0, output_limit=10.0)
     yaw = 30.0

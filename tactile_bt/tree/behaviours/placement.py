@@ -124,10 +124,19 @@ class TableOffset(TactileBehaviour):
 
 
 class _FollowKey:
-    """Mixin of the servo leaves whose COP target follows a blackboard key every cycle."""
+    """Mixin of the servo leaves whose COP target follows a blackboard key every cycle, and
+    that may servo the centre of pressure of every contact region together (``all_regions``)."""
 
     target_key = Parameter("/scan/cop_target", fixed=True,
                            doc="Blackboard key of the target ``[x, y]`` (m, sensor frame).")
+    all_regions = Parameter(False, doc="Servo the centre of pressure of every contact region together "
+                                       "(``load_cop_xy``), not the largest region's, while the pad bridges: where "
+                                       "a flat pad rests on two rims of a hollow, the largest region changes sides "
+                                       "from one frame to the next, and the pad would chase each in turn.")
+    bridge_share = Parameter(0.2, bound=between(0, 0.5, low_open=True), unit=None,
+                             doc="With ``all_regions``: the pad bridges when the smaller of the largest region "
+                                 "and the others carries this share of the load; from half of it up, the servoed "
+                                 "centre moves from the largest region's towards the common one.")
 
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         super().__init__(name, *args, **parameters)
@@ -140,7 +149,29 @@ class _FollowKey:
             x, y = read(self.target_key)
         except KeyError:
             x, y = self.target_m
-        return (float(x), float(y)), 0.0, 0.0
+        x, y = float(x), float(y)
+        if self.all_regions:
+            # the error target - servoed centre, written as a shifted target for the same formula
+            cx, cy = self.features.cop_xy
+            sx, sy = self.servoed_cop()
+            x, y = x + cx - sx, y + cy - sy
+        return (x, y), 0.0, 0.0
+
+    def servoed_cop(self) -> tuple[float, float]:
+        """The centre of pressure this leaf servos (m, sensor frame): the largest region's, or
+        with ``all_regions``, while the pad bridges, every region's together (blended in from
+        half of ``bridge_share`` to all of it, so that the servoed centre never jumps)."""
+        f = self.features
+        x, y = f.cop_xy
+        if not (self.all_regions and f.in_contact and f.others_tactels > 0):
+            return x, y
+        other = f.others_force
+        share = min(other, f.force) / (other + f.force) if other > 0.0 else 0.0
+        blend = min(max(2.0 * share / self.bridge_share - 1.0, 0.0), 1.0)
+        if not blend:
+            return x, y
+        lx, ly = f.load_cop_xy
+        return x + blend * (lx - x), y + blend * (ly - y)
 
 
 class CentreTo(_FollowKey, Centre):
@@ -168,7 +199,7 @@ class RollTo(_FollowKey, Roll):
         status = super().update()
         wx, wy = self._last_twist[3], self._last_twist[4]
         if wx or wy:
-            x, y = self.features.cop_xy
+            x, y = self.servoed_cop()
             self.command.add(self.name, (0.0, 0.0, wy * x - wx * y, 0.0, 0.0, 0.0))
         return status
 
