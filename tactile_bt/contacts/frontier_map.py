@@ -47,6 +47,12 @@ VALLEY = "valley"
 FACE_INWARD_M = 0.010
 FACE_TURN_RAD = math.radians(5.0)
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
+#: An open channel is a hollow when at least this share of its sloping rim cells (sloping by
+#: more than :data:`HOLLOW_RIM_LEAN_RAD`, measured over :data:`HOLLOW_RIM_BACK` cells away from it)
+#: descend into it (:meth:`FrontierMap.valleys`). A gap on a convex surface has about half.
+HOLLOW_RIM_SHARE = 0.8
+HOLLOW_RIM_LEAN_RAD = math.radians(2.0)
+HOLLOW_RIM_BACK = 4
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
 
@@ -90,6 +96,8 @@ class FrontierMap:
         self.z_max = np.full((self.n, self.n), -np.inf)
         #: Cells seen to hold no surface above the table (a border swept down to it touched nothing).
         self.empty = np.zeros((self.n, self.n), dtype=bool)
+        #: Cells a flat pad was seen to bridge: it rested on contacts on both sides of them.
+        self.hollow = np.zeros((self.n, self.n), dtype=bool)
         self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
         self.cause = np.full((self.n, self.n, SECTORS), -1, dtype=np.int16)
         #: The causes of blocks, in the order they first came.
@@ -224,16 +232,29 @@ class FrontierMap:
         return int(self.blocked[rr, cc, s].sum()) - before
 
     def valleys(self, max_width_m: float) -> np.ndarray:
-        """``(n, n)`` bool: the untouched cells of holes in the touched area, enclosed by it (not
-        connected to the untouched surroundings) and at most ``max_width_m`` across their
-        narrower side (of their bounding box in the grid): hollows a flat pad of that width
-        bridges. Cells seen :attr:`empty` belong to no hole (the table seen through a ring)."""
+        """``(n, n)`` bool: the untouched cells of hollows a flat pad ``max_width_m`` wide bridges.
+
+        - Holes in the touched area, enclosed by it (not connected to the untouched surroundings)
+          and at most ``max_width_m`` across their narrower side (of their bounding box in the
+          grid).
+        - Channels open at their ends (a groove running off the object): untouched cells that
+          the touched area closes over (a morphological closing with a disc ``max_width_m``
+          across), in parts whose rims slope down into them on both sides
+          (:data:`HOLLOW_RIM_SHARE` of the sloping rim cells descend towards the channel). A gap
+          between two swaths on a convex surface does not: there one rim rises towards it; nor
+          on a flat one, where no rim slopes.
+
+        - Such parts that hold cells the pad was seen to bridge (:meth:`mark_bridged`), whatever
+          their rims: the touched area closes over them, and the pad rested on both sides.
+
+        Cells seen :attr:`empty` belong to no hollow (the table seen through a ring)."""
         out = np.zeros((self.n, self.n), dtype=bool)
         w = self._window()
         t = self._touched(self.count[w])
         if max_width_m <= 0 or not t.any():
             return out
-        holes, n = ndimage.label(~t & ~self.empty[w])
+        free = ~t & ~self.empty[w]
+        holes, n = ndimage.label(free)
         if not n:
             return out
         outside = np.unique(np.concatenate((holes[0], holes[-1], holes[:, 0], holes[:, -1])))
@@ -242,8 +263,47 @@ class FrontierMap:
             if box is not None and k not in outside:
                 height, width = (sl.stop - sl.start for sl in box)
                 keep[k] = min(height, width) * self.cell_m <= max_width_m
-        out[w] = keep[holes]
+        found = keep[holes]
+        found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w], w)
+        out[w] = found
         return out
+
+    def _channels(self, t: np.ndarray, free: np.ndarray, radius: float, bridged: np.ndarray,
+                  w: tuple[slice, slice]) -> np.ndarray:
+        """The cells of ``free`` (window-sized) that the closing of the touched window ``t`` by a
+        disc of ``radius`` cells covers, in parts whose rims descend into them or that hold cells
+        seen ``bridged`` (see :meth:`valleys`)."""
+        margin = int(math.ceil(radius)) + 1
+        grown = ndimage.distance_transform_edt(~np.pad(t, margin)) <= radius
+        closed = (ndimage.distance_transform_edt(grown) > radius)[margin:-margin, margin:-margin]
+        parts, n = ndimage.label(closed & free)
+        if not n:
+            return np.zeros_like(free)
+        keep = np.zeros(n + 1, dtype=bool)
+        # each touched cell beside a part, the part's cell nearest to it, and the surface's rise
+        # from the rim cell to the touched cell HOLLOW_RIM_BACK cells farther from the part (the
+        # heights: a border touching a hollow records the pad's normal, not the surface's)
+        _, (near_r, near_c) = ndimage.distance_transform_edt(parts == 0, return_indices=True)
+        rim = t & ndimage.binary_dilation(parts > 0, structure=np.ones((3, 3), dtype=bool))
+        rr, rc = np.nonzero(rim)
+        label = parts[near_r[rr, rc], near_c[rr, rc]]
+        towards = np.column_stack((near_c[rr, rc] - rc, near_r[rr, rc] - rr)).astype(float)  # (x, y)
+        towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-9)
+        z = self.z_max[w]
+        br = np.rint(rr - HOLLOW_RIM_BACK * towards[:, 1]).astype(int)
+        bc = np.rint(rc - HOLLOW_RIM_BACK * towards[:, 0]).astype(int)
+        inside = (br >= 0) & (br < z.shape[0]) & (bc >= 0) & (bc < z.shape[1])
+        back = np.full(len(rr), -np.inf)
+        back[inside] = z[br[inside], bc[inside]]
+        with np.errstate(invalid="ignore"):
+            rise = (back - z[rr, rc]) / (HOLLOW_RIM_BACK * self.cell_m)
+        least = math.tan(HOLLOW_RIM_LEAN_RAD)
+        sloped = np.isfinite(rise) & (np.abs(rise) > least)
+        for k in range(1, n + 1):
+            mine = sloped & (label == k)
+            keep[k] = mine.sum() >= 4 and float(np.mean(rise[mine] > least)) >= HOLLOW_RIM_SHARE
+        keep[np.unique(parts[bridged & (parts > 0)])] = True  # the pad rested on both sides
+        return keep[parts]
 
     def classify(self, max_tilt_rad: float, table_z_m: float = math.nan, table_clearance_m: float = 0.0,
                  valley_m: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -379,6 +439,28 @@ class FrontierMap:
             points = points[distance > radius_m]
         keys = np.unique(np.floor(points[:, :2] / step).astype(np.int64), axis=0)
         return float(len(keys)) * step * self.cell_m
+
+    def mark_bridged(self, a: np.ndarray, b: np.ndarray, half_width_m: float, end_m: float = 0.005) -> int:
+        """Mark the cells between two contacts a flat pad rested on at once (world points ``a``
+        and ``b``, m) as :attr:`hollow`: those within ``half_width_m`` of the segment from ``a``
+        to ``b``, farther than ``end_m`` from either end along it. Returns how many cells."""
+        a, b = np.asarray(a, dtype=float)[:2], np.asarray(b, dtype=float)[:2]
+        length = float(np.linalg.norm(b - a))
+        if not length > 2 * end_m:
+            return 0
+        u = (b - a) / length
+        lo = self.cell_of((np.minimum(a, b) - half_width_m)[None, :])[0]
+        hi = self.cell_of((np.maximum(a, b) + half_width_m)[None, :])[0] + 1
+        lo, hi = np.maximum(lo, 0), np.minimum(hi, self.n)
+        if np.any(hi <= lo):
+            return 0
+        rows, cols = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
+        d = self.centre_of(rows.ravel(), cols.ravel()) - a
+        along = d @ u
+        across = np.abs(d @ np.array([-u[1], u[0]]))
+        inside = (along > end_m) & (along < length - end_m) & (across <= half_width_m)
+        self.hollow[rows.ravel()[inside], cols.ravel()[inside]] = True
+        return int(inside.sum())
 
     def mark_empty(self, xy: np.ndarray) -> None:
         """Mark the untouched cells at world xy points ``(k, 2)`` (m) as :attr:`empty`."""

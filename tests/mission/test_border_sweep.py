@@ -124,3 +124,31 @@ def test_a_tilted_pad_sweeps_the_side_of_a_groove_it_bridges_with_its_border():
     near, _ = cKDTree(samples).query(strip[local_x > 0.03])
     assert np.mean(near <= 0.002) > 0.9
     assert np.max(result.log["pressure_pa"]) < 2 * sweep.sweep_pressure_pa
+
+
+def test_a_scan_tree_with_contact_bridged_on_the_groove_marks_the_hollow_it_bridges_and_never_presses_hard():
+    # the scan tree with contact_bridged beside the planner's other ends and the common centre
+    # of pressure servoed while the pad bridges; the pad starts over the middle of the shipped
+    # groove, which it bridges from its first touch. Within 20 s the tree ends attempts as
+    # bridging, the map marks the strip between the rims as a hollow (a valley), and the pad
+    # settles across the rims: no supervisor retreat
+    from tactile_bt import load_tree
+
+    text = (ROOT / "trees/scan_object.yaml").read_text()
+    stalled = "                                      - contact_stalled:"
+    assert stalled in text
+    text = text.replace(stalled, "                                      - contact_bridged: {window_s: 0.5, "
+                                 "end_key: /scan/attempt_end}\n" + stalled, 1)
+    text = text.replace("kp: 1.0}", "kp: 1.0, all_regions: true}", 1)
+    text = text.replace("output_limit: 60 mm/s}", "output_limit: 60 mm/s, all_regions: true}", 1)
+    assert text.count("all_regions: true") == 2
+    scene = load_scene(ROOT / "sim/scan_groove.yaml")
+    tree = load_tree(str(ROOT / "trees/scan_bridged.yaml"), text=text, pad=scene.sensor.geometry)
+    planner = next(n for n in tree.root.iterate() if n.name == "frontier_guidance")
+    result = run_mission(tree, scene, duration=20.0, seed=0)
+    assert planner.ends["bridge"] >= 1
+    assert planner.map.hollow.any()
+    assert np.any(planner.map.valleys(min(scene.sensor.geometry.size_m)) & planner.map.hollow)
+    assert result.summary.supervisor["interventions"] == 0
+    touching = result.log["in_contact"].astype(bool) & (result.log["t"] > 2.0)
+    assert np.max(result.log["pressure_pa"][touching]) < 4000.0

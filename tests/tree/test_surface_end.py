@@ -11,8 +11,9 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
-from tactile_bt.tree.behaviours import (ContactJumped, ContactShrank, ContactStalled, PadTurned, RollingOverEdge,
-                                        TiltLimit)
+from tactile_bt.perception.synthetic import line_contact
+from tactile_bt.tree.behaviours import (ContactBridged, ContactJumped, ContactShrank, ContactStalled, PadTurned,
+                                        RollingOverEdge, TiltLimit)
 from scan_helpers import ticks_until_done
 
 DT = 1.0 / 250.0
@@ -41,6 +42,34 @@ def test_contact_stalled_keeps_running_while_the_contact_moves():
     # now it stops: FAILURE (as asked) once the last 0.5 s hold less than 4 mm, i.e. 0.3 s later
     k, status = ticks_until_done(h, 200)
     assert status == Status.FAILURE and k * DT == pytest.approx(0.3, abs=0.01)
+
+
+def _rims(left_share: float) -> np.ndarray:
+    """A flat pad on the two rims of a hollow: line contacts along its two borders (x = 1 and
+    14 tactels, 65 mm apart), ``left_share`` of 3 N on the left one."""
+    return (line_contact((1.0, 7.5), math.pi / 2, 12.0, 0.8, 3.0 * left_share)
+            + line_contact((14.0, 7.5), math.pi / 2, 12.0, 0.8, 3.0 * (1.0 - left_share)))
+
+
+def test_contact_bridged_after_the_window_of_two_contacts_though_the_largest_changes_sides():
+    h = LeafHarness(ContactBridged(window_s=0.5), dt=DT, pose=make_pose(DOWN, (0, 0, 0)))
+    statuses = []
+    for k in range(int(0.5 / DT) + 1):
+        # the load rocks from one rim to the other, and one frame in 25 sees the right rim alone
+        frame = _rims(1e-6) if k % 25 == 24 else _rims(0.45 if (k // 10) % 2 else 0.55)
+        statuses.append(h.tick(frame=frame))
+    assert set(statuses[:int(0.5 / DT)]) == {Status.RUNNING}
+    assert statuses[-1] == Status.SUCCESS
+    assert "bridging two contacts 65 mm apart" in h.behaviour.feedback_message
+    # the largest region's centre jumped 65 mm at each change of sides: it "travelled" far
+    assert h.behaviour.travelled > 0.5
+
+
+@pytest.mark.parametrize("left_share", [0.0, 0.1])
+def test_contact_bridged_not_on_one_contact_or_a_light_second_one(left_share):
+    h = LeafHarness(ContactBridged(window_s=0.5, min_share=0.2), dt=DT, pose=make_pose(DOWN, (0, 0, 0)))
+    frame = _rims(left_share) if left_share else line_contact((14.0, 7.5), math.pi / 2, 12.0, 0.8, 3.0)
+    assert {h.tick(frame=frame) for _ in range(int(1.0 / DT))} == {Status.RUNNING}
 
 
 def test_tilt_limit_on_tilt_but_not_for_a_stripe_that_starts_tilted_and_rolls_back():

@@ -18,8 +18,8 @@ from tactile_bt.tree.parameters import bind_blackboard
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 from tactile_bt.tree.behaviours.scan import CoverageStalled, ScanDirection
-from tactile_bt.tree.behaviours.surface_end import (ContactJumped, ContactShrank, ContactStalled, PadTurned,
-                                                    RollingOverEdge, TiltLimit, Travelled)
+from tactile_bt.tree.behaviours.surface_end import (ContactBridged, ContactJumped, ContactShrank, ContactStalled,
+                                                    PadTurned, RollingOverEdge, TiltLimit, Travelled)
 from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
 from tactile_bt.tree.behaviours.border_sweep import BorderSweep
@@ -47,6 +47,7 @@ LEAVES = {
     "contact_shrank": ContactShrank,
     "travelled": Travelled,
     "contact_stalled": ContactStalled,
+    "contact_bridged": ContactBridged,
     "coverage_stalled": CoverageStalled,
     "cable_end": CableEnd,
     "backtrack": Backtrack,
@@ -94,6 +95,7 @@ __all__ = [
     "ContactShrank",
     "Travelled",
     "ContactStalled",
+    "ContactBridged",
     "CoverageStalled",
     "CableEnd",
     "Backtrack",

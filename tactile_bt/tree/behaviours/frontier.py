@@ -65,6 +65,9 @@ __all__ = ["FrontierGuidance", "FRONTIER_LEFT_KEY"]
 
 #: Ends of an attempt at an edge under the pad (its imprint reached the edge across its width).
 _EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
+#: Half the width (m) of the strip between two contacts the pad bridged that the map marks as a
+#: hollow (the contacts' centres lie mid-way along their lines).
+_BRIDGED_HALF_WIDTH_M = 0.01
 #: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
 _LEVEL_MARGIN_COS = 0.02
 #: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
@@ -347,6 +350,8 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         end = read_or(self.end_key)
         if end is not None and end.get("attempt") == self.attempts:
             self._cause = end["cause"]
+            if "bridge" in end and self.map is not None:  # the pad rested on both sides of a hollow
+                self.map.mark_bridged(*end["bridge"], half_width_m=_BRIDGED_HALF_WIDTH_M)
             return end["message"], self._cause in _EDGE_CAUSES
         clearance, _ = self._clearance()
         if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:

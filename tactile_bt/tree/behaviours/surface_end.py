@@ -14,7 +14,9 @@ trees/surface_scan_stripes.yaml):
 - ``contact_shrank``: the contact area fell below ``min_area_ratio`` of its largest (the pad has
   run half over an edge);
 - ``travelled``: the contact point has travelled ``max_travel_m``;
-- ``contact_stalled``: the contact point moved less than ``min_travel_m`` in ``window_s``.
+- ``contact_stalled``: the contact point moved less than ``min_travel_m`` in ``window_s``;
+- ``contact_bridged``: the pad has borne two contacts apart for ``window_s`` (a flat pad bridging
+  a hollow narrower than itself).
 
 With ``end_key`` set, a leaf serves a planner instead of a composite: when its sign holds it
 writes ``{"attempt", "cause", "message"}`` to that key (unless an end of the same attempt is
@@ -42,7 +44,7 @@ from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["SurfaceEnd", "TiltLimit", "PadTurned", "ContactJumped", "RollingOverEdge", "ContactShrank", "Travelled",
-           "ContactStalled", "ATTEMPT_KEY", "ATTEMPT_END_KEY", "unit_vector"]
+           "ContactStalled", "ContactBridged", "ATTEMPT_KEY", "ATTEMPT_END_KEY", "unit_vector"]
 
 #: Blackboard key of the planner's attempt number, and of the end of its current attempt.
 ATTEMPT_KEY = "/scan/attempt"
@@ -150,8 +152,14 @@ class SurfaceEnd(TactileBehaviour):
             return self._end
         end = read_or(self.end_key)
         if end is None or end.get("attempt") != self._attempt:
-            write(self.end_key, {"attempt": self._attempt, "cause": self.cause, "message": why, "point": point})
+            write(self.end_key, {"attempt": self._attempt, "cause": self.cause, "message": why, "point": point,
+                                 **self.evidence(T, f)})
         return Status.RUNNING
+
+    def evidence(self, pose: np.ndarray, features) -> dict:
+        """What the planner may learn from this end besides its cause, written with it (a
+        dict; none by default)."""
+        return {}
 
     def check(self, now: float, normal: np.ndarray, point: np.ndarray | None, features) -> str:
         """Why the surface ends here ("" while it goes on): ``now`` (s), the pad normal (world,
@@ -380,3 +388,47 @@ class ContactStalled(SurfaceEnd):
             return False
         turn = _angle(float(normal @ before))
         return turn > self.rolling_turn_rad and -float(normal @ self.up) < -float(before @ self.up)
+
+
+class ContactBridged(SurfaceEnd):
+    """The pad has borne two separate contacts, the smaller carrying at least ``min_share`` of
+    the load, for ``window_s`` (gaps in it up to ``gap_s`` do not count): a flat pad bridging a
+    hollow narrower than itself (a groove, the hole of a ring) rests on its rims and cannot lie
+    on what lies between them. Sliding on, it rocks from one rim to the other while the largest
+    region changes sides, so that its centre of pressure seems to travel and it never stalls."""
+
+    cause = "bridge"
+    window_s = Parameter(1.5, bound=POSITIVE, doc="Time the pad must have borne two contacts (s).")
+    min_share = Parameter(0.2, bound=between(0, 0.5, low_open=True), unit=None,
+                          doc="Least share of the load on the smaller of the two contacts.")
+    gap_s = Parameter(0.25, bound=NON_NEGATIVE, doc="Longest break in the bridging that does not start it over (s).")
+
+    def restart(self) -> None:
+        self._since: float | None = None
+        self._last_bridged = -math.inf
+
+    def check(self, now, normal, point, features) -> str:
+        other = features.others_force if point is not None and features.others_tactels > 0 else 0.0
+        share = other / (other + features.force) if other > 0.0 else 0.0
+        if min(share, 1.0 - share) < self.min_share:
+            if now - self._last_bridged > self.gap_s:
+                self._since = None
+            return ""
+        self._last_bridged = now
+        if self._since is None:
+            self._since = now
+        if now - self._since < self.window_s:
+            return ""
+        apart = features.pad.pitch * math.dist(features.cop_px.tolist(), features.others_cop_px)
+        return (f"bridging two contacts {apart * 1e3:.0f} mm apart for {self.window_s:g} s after "
+                f"{self.travelled * 1e3:.0f} mm")
+
+    def evidence(self, pose: np.ndarray, features) -> dict:
+        """``{"bridge": (a, b)}``: the two contacts' centres (world, m), the pad's rests on either
+        side of the hollow."""
+        if not features.others_tactels > 0:
+            return {}
+        points = []
+        for x, y in (features.cop_xy, features.pad.xy_px_to_m(*features.others_cop_px)):
+            points.append(pose[:3, 0] * x + pose[:3, 1] * y + pose[:3, 3])
+        return {"bridge": tuple(points)}
