@@ -47,12 +47,6 @@ VALLEY = "valley"
 FACE_INWARD_M = 0.010
 FACE_TURN_RAD = math.radians(5.0)
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
-#: An open channel is a hollow when at least this share of its sloping rim cells (sloping by
-#: more than :data:`HOLLOW_RIM_LEAN_RAD`, measured over :data:`HOLLOW_RIM_BACK` cells away from it)
-#: descend into it (:meth:`FrontierMap.valleys`). A gap on a convex surface has about half.
-HOLLOW_RIM_SHARE = 0.8
-HOLLOW_RIM_LEAN_RAD = math.radians(2.0)
-HOLLOW_RIM_BACK = 4
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
 
@@ -237,15 +231,10 @@ class FrontierMap:
         - Holes in the touched area, enclosed by it (not connected to the untouched surroundings)
           and at most ``max_width_m`` across their narrower side (of their bounding box in the
           grid).
-        - Channels open at their ends (a groove running off the object): untouched cells that
-          the touched area closes over (a morphological closing with a disc ``max_width_m``
-          across), in parts whose rims slope down into them on both sides
-          (:data:`HOLLOW_RIM_SHARE` of the sloping rim cells descend towards the channel). A gap
-          between two swaths on a convex surface does not: there one rim rises towards it; nor
-          on a flat one, where no rim slopes.
-
-        - Such parts that hold cells the pad was seen to bridge (:meth:`mark_bridged`), whatever
-          their rims: the touched area closes over them, and the pad rested on both sides.
+        - Channels open at their ends (a groove running off the object) that the pad was seen to
+          bridge (:meth:`mark_bridged`): untouched cells that the touched area closes over (a
+          morphological closing with a disc ``max_width_m`` across), in parts that hold cells
+          the pad rested across. A bridge seen beyond the touched area explains nothing there.
 
         Cells seen :attr:`empty` belong to no hollow (the table seen through a ring)."""
         out = np.zeros((self.n, self.n), dtype=bool)
@@ -264,45 +253,23 @@ class FrontierMap:
                 height, width = (sl.stop - sl.start for sl in box)
                 keep[k] = min(height, width) * self.cell_m <= max_width_m
         found = keep[holes]
-        found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w], w)
+        found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
         out[w] = found
         return out
 
-    def _channels(self, t: np.ndarray, free: np.ndarray, radius: float, bridged: np.ndarray,
-                  w: tuple[slice, slice]) -> np.ndarray:
+    def _channels(self, t: np.ndarray, free: np.ndarray, radius: float, bridged: np.ndarray) -> np.ndarray:
         """The cells of ``free`` (window-sized) that the closing of the touched window ``t`` by a
-        disc of ``radius`` cells covers, in parts whose rims descend into them or that hold cells
-        seen ``bridged`` (see :meth:`valleys`)."""
+        disc of ``radius`` cells covers, in parts that hold cells seen ``bridged`` (see
+        :meth:`valleys`)."""
+        if not bridged.any():
+            return np.zeros_like(free)
         margin = int(math.ceil(radius)) + 1
         grown = ndimage.distance_transform_edt(~np.pad(t, margin)) <= radius
         closed = (ndimage.distance_transform_edt(grown) > radius)[margin:-margin, margin:-margin]
         parts, n = ndimage.label(closed & free)
-        if not n:
-            return np.zeros_like(free)
         keep = np.zeros(n + 1, dtype=bool)
-        # each touched cell beside a part, the part's cell nearest to it, and the surface's rise
-        # from the rim cell to the touched cell HOLLOW_RIM_BACK cells farther from the part (the
-        # heights: a border touching a hollow records the pad's normal, not the surface's)
-        _, (near_r, near_c) = ndimage.distance_transform_edt(parts == 0, return_indices=True)
-        rim = t & ndimage.binary_dilation(parts > 0, structure=np.ones((3, 3), dtype=bool))
-        rr, rc = np.nonzero(rim)
-        label = parts[near_r[rr, rc], near_c[rr, rc]]
-        towards = np.column_stack((near_c[rr, rc] - rc, near_r[rr, rc] - rr)).astype(float)  # (x, y)
-        towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-9)
-        z = self.z_max[w]
-        br = np.rint(rr - HOLLOW_RIM_BACK * towards[:, 1]).astype(int)
-        bc = np.rint(rc - HOLLOW_RIM_BACK * towards[:, 0]).astype(int)
-        inside = (br >= 0) & (br < z.shape[0]) & (bc >= 0) & (bc < z.shape[1])
-        back = np.full(len(rr), -np.inf)
-        back[inside] = z[br[inside], bc[inside]]
-        with np.errstate(invalid="ignore"):
-            rise = (back - z[rr, rc]) / (HOLLOW_RIM_BACK * self.cell_m)
-        least = math.tan(HOLLOW_RIM_LEAN_RAD)
-        sloped = np.isfinite(rise) & (np.abs(rise) > least)
-        for k in range(1, n + 1):
-            mine = sloped & (label == k)
-            keep[k] = mine.sum() >= 4 and float(np.mean(rise[mine] > least)) >= HOLLOW_RIM_SHARE
         keep[np.unique(parts[bridged & (parts > 0)])] = True  # the pad rested on both sides
+        keep[0] = False
         return keep[parts]
 
     def classify(self, max_tilt_rad: float, table_z_m: float = math.nan, table_clearance_m: float = 0.0,
