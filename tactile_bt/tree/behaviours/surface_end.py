@@ -19,11 +19,11 @@ trees/surface_scan_stripes.yaml):
   a hollow narrower than itself).
 
 With ``end_key`` set, a leaf serves a planner instead of a composite: when its sign holds it
-writes ``{"attempt", "cause", "message"}`` to that key (unless an end of the same attempt is
-there already) and stays RUNNING, and it starts over whenever the attempt number on
-``attempt_key`` changes (``frontier_guidance`` writes it). Every leaf keeps its ``cause`` ("tilt",
-"turn", "jump", "edge", "shrink", "travel", "stall"): the planner's bookkeeping of the frontier
-left. All of them read the mission clock, never wall time.
+writes ``{"attempt", "cause", "message", "point"}`` and what else it learnt
+(:meth:`SurfaceEnd.evidence`) to that key (unless an end of the same attempt is there already)
+and stays RUNNING, and it starts over whenever the attempt number on ``attempt_key`` changes
+(``frontier_guidance`` writes it). Every leaf keeps its ``cause`` ("tilt", "turn", "jump",
+"edge", "shrink", "travel", "stall", "bridge"): the planner's bookkeeping of the frontier left. All of them read the mission clock, never wall time.
 
 Layer: tree.
 """
@@ -424,8 +424,8 @@ class ContactBridged(SurfaceEnd):
                 f"{self.travelled * 1e3:.0f} mm")
 
     def evidence(self, pose: np.ndarray, features) -> dict:
-        """``{"bridge": (a, b)}``: the two contacts' centres (world, m), the pad's rests on either
-        side of the hollow."""
+        """``{"bridge": (a, b)}``: the two contacts' centres (world, m), where the pad rests on
+        either side of the hollow."""
         if not features.others_tactels > 0:
             return {}
         points = []
