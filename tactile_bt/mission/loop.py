@@ -17,6 +17,7 @@ from py_trees.common import Status
 from tactile_bt import defaults
 from tactile_bt.contacts.cloud import ContactCloud
 from tactile_bt.control.servo import ServoCommand
+from tactile_bt.mission.node_status import tree_nodes
 from tactile_bt.perception.features import extract
 from tactile_bt.perception.smoothing import FeatureSmoother
 from tactile_bt.sense.geometry import PadGeometry
@@ -160,20 +161,14 @@ def running_reason(root: py_trees.behaviour.Behaviour, duration_s: float) -> str
     deepest running node that says anything was doing (``"600 s of mission time ran out while
     frontier_guidance was running: sliding to the frontier"``). "" for a tree that runs for the
     mission's time (a servo experiment): running out of it is its end."""
-    nodes = list(root.iterate())
-    if not any(getattr(node, "reports_success", False) for node in nodes):
+    nodes = tree_nodes(root)
+    if not any(getattr(node, "reports_success", False) for node, _, _ in nodes):
         return ""
-
-    def depth(node) -> int:
-        d = 0
-        while node.parent is not None:
-            node, d = node.parent, d + 1
-        return d
-
-    running = [node for node in nodes if node.status == Status.RUNNING and node.feedback_message]
+    running = [(depth, node) for node, _, depth in nodes if node.status == Status.RUNNING and node.feedback_message]
     if not running:
         return f"{duration_s:g} s of mission time ran out"
-    node = max(running, key=depth)  # the first of the deepest: the task's own step, not a guard beside it
+    # the first of the deepest: the task's own step, not a guard beside it
+    _, node = max(running, key=lambda entry: entry[0])
     return f"{duration_s:g} s of mission time ran out while {node.name} was running: {node.feedback_message}"
 
 

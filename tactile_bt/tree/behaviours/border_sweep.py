@@ -226,7 +226,8 @@ class BorderSweep(Reapproach):
         elif f.in_contact and inside > _BODY_M:  # a level pad's body on the surface: not the border
             self._finish("body")
             return Status.RUNNING
-        carving = not f.in_contact and self._at_table()  # a valley's border down at the table, touching nothing
+        at_table = self._at_table()
+        carving = not f.in_contact and at_table  # a valley's border down at the table, touching nothing
         if f.in_contact or carving:
             self._last_contact = self.now
             self._pass_contact_s += self.dt
@@ -234,9 +235,9 @@ class BorderSweep(Reapproach):
             self._record(f)
         elif carving:
             self._carve()
-        line = self._line + self._step * self._pass
+        border = self._border()
         forward = self._pass % 2 == 0  # passes go to and fro
-        along = self._first + float((self._border() - line) @ self._along)  # from the sweep's start
+        along = self._first + float((border - self._line - self._step * self._pass) @ self._along)  # from the start
         settled = self._pass_contact_s >= _SETTLE_S  # this pass has touched long enough to sweep on
         done = along >= self._s_end if forward else along <= self._first
         if self.now - self._last_contact > self.lost_s:
@@ -253,10 +254,10 @@ class BorderSweep(Reapproach):
             press = max(-self.max_press_mps, min(self.max_press_mps, self.kp * (self.sweep_pressure_pa - f.pressure)))
         else:
             press = self.approach_speed_mps  # find the surface again
-        if press > 0 and self._at_table() and self._press[2] < 0:
+        if press > 0 and at_table and self._press[2] < 0:
             press = 0.0  # never down onto the table
         speed = (_CARVING * self.sweep_speed_mps if carving else self.sweep_speed_mps) if settled else 0.0
-        self._hold(press, speed if forward else -speed, lean)
+        self._hold(press, speed if forward else -speed, lean, border)
         return Status.RUNNING
 
     def _at_table(self) -> bool:
@@ -284,12 +285,15 @@ class BorderSweep(Reapproach):
         u = self._facing() * self.pad.half_width_m
         return T[:3, :3] @ np.array([u[0], u[1], 0.0]) + T[:3, 3]
 
-    def _hold(self, press_mps: float, along_mps: float, lean_rps: float = 0.0) -> None:
+    def _hold(self, press_mps: float, along_mps: float, lean_rps: float = 0.0,
+              border: np.ndarray | None = None) -> None:
         """Command a twist that moves the pad ``press_mps`` towards the surface and ``along_mps``
         along the sweep and rolls it ``lean_rps`` about its border's edge (body up), holding its
-        orientation otherwise and its border's place across the sweep (the pass's line)."""
+        orientation otherwise and its border's place across the sweep (the pass's line);
+        ``border``: :meth:`_border` of this cycle, when the caller has it already."""
         T = self.pose
-        border = self._border()
+        if border is None:
+            border = self._border()
         error = self._line + self._step * self._pass - border
         error -= (error @ self._along) * self._along + (error @ self._press) * self._press
         roll = -lean_rps * self._hinge  # about the border's edge: the body rises for lean_rps > 0
