@@ -125,13 +125,16 @@ def _job(args: tuple) -> dict:
 
 def _short(reason: str) -> str:
     """A reason without the counts in brackets (``(171 targets, …)``, ``(402 stall, …)``) and the
-    lists after a semicolon, and without the name of the node that gave it."""
+    lists after a semicolon, and without the name of the node that gave it; a joint held at its
+    limit (``; joint 4 held at its upper limit (+120°) since …``) stays."""
     for leaf in ("cable_end: ", "frontier_guidance: ", "end of cable: "):
         reason = reason.replace(leaf, "")
+    held = re.search(r"; (joint \d+ held at its \w+ limit)", reason)
     counts = re.search(r" \(\d+ [a-z]", reason)
     cut = min((i for i in (counts.start() if counts else -1, reason.find(";")) if i > 0), default=len(reason))
     short = reason[:cut]
-    return short + ")" * (short.count("(") - short.count(")"))
+    short += ")" * (short.count("(") - short.count(")"))
+    return f"{short}; {held.group(1)}" if held else short
 
 
 def markdown(rows: list[dict], short: bool = False) -> str:
