@@ -15,7 +15,11 @@ however close the arm is to a singularity.  Joint limits are handled by saturati
 null space (after Flacco, De Luca & Khatib 2012, "SNS"): a joint that would leave its range in
 the next step is fixed at the velocity that just reaches the limit, and the remaining joints
 are re-solved for the rest of the twist, so a 7-DOF arm keeps the commanded Cartesian motion
-while one joint rests on its stop.  Joint velocity limits scale the whole vector (the direction
+while one joint rests on its stop.  When that joint is the last (the flange's own rotation, which
+the others can hardly make up for), the re-solve leaves out the rotation about its axis: the pad
+stops turning about its normal and keeps every other part of the twist, instead of slowing the
+whole twist down to a standstill (a retreat from the object held still by a turn the wrist
+cannot make).  Joint velocity limits scale the whole vector (the direction
 is kept), and the limits are checked on the scaled velocities.  With the velocity limits on, the
 re-solve is *undamped* (pseudo-inverse with a rank cut-off at 1e-9): where the remaining joints
 can make the twist only with large velocities (their Jacobian near singular), the scaling slows
@@ -186,13 +190,17 @@ class ResolvedRateMixin:
                 break
             rest = Vh - Jh[:, ~free] @ qd[~free]
             sub = None if null is None else null[free]
+            rows = Jh[:, free]
+            if not free[-1]:  # the flange's own rotation is on its stop: give up turning about its axis
+                keep = _without_axis(J[3:, -1])
+                rows, rest = keep @ rows, keep @ rest
             # With the speed scaling, undamped: exact where the other joints can do it. Damping
             # would trade the rotation they can hardly make for a translation nobody asked for
             # (the pad "jumps" sideways); the speed scaling below scales the whole twist
             # instead, so the pad slows down on its path and holds where the rest is out of
             # reach. What the remaining joints cannot do at all (the elbow's direction) is
             # dropped in the least-squares sense.
-            qd[free] = damped_least_squares(Jh[:, free], rest, damping if not velocity_limits else 0.0,
+            qd[free] = damped_least_squares(rows, rest, damping if not velocity_limits else 0.0,
                                             sigma_threshold, sub, null_speed_max)[0]
             if velocity_limits:
                 peak = self._speed_peak(qd)
@@ -210,6 +218,18 @@ class ResolvedRateMixin:
     def _speed_peak(self, qd: np.ndarray) -> float:
         """``max(1, max_i |qd_i| / qd_max_i)``: the factor that brings ``qd`` within the velocity limits."""
         return max(1.0, float(np.max(np.abs(qd) / self.qd_max)))
+
+
+def _without_axis(axis: np.ndarray) -> np.ndarray:
+    """``(5, 6)``: the rows of a hybrid twist ``[p_dot; w]`` but the rotation about ``axis``
+    (world): the translation and the two rotations across it."""
+    a = np.asarray(axis, dtype=float) / max(float(np.linalg.norm(axis)), 1e-12)
+    u = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    keep = np.zeros((5, 6))
+    keep[:3, :3] = np.eye(3)
+    keep[3, 3:], keep[4, 3:] = u, np.cross(a, u)
+    return keep
 
 
 def damped_least_squares(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None,

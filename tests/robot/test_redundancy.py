@@ -145,3 +145,25 @@ def test_a_saturated_wrist_joint_does_not_make_the_pad_jump(kin):
     # what it could not do shows in the residual: the turn, not a translation
     r = arm.last_rate.residual
     assert abs(r[3:] @ arm.T_gs[:3, 2]) > 0.5 and np.linalg.norm(r[:3]) < 0.05
+
+
+def test_with_the_wrist_on_its_stop_a_retreat_still_moves_the_pad_away(kin):
+    """The supervisor's retreat (back along the normal and away from a contact at the border)
+    with joint 7 on its upper stop, in a posture of a torus scan: the six other joints cannot
+    hold the pad's turn about its normal as well, and they used to slow the whole retreat to
+    under a tenth. Now the pad gives up that turn alone: every other part of the retreat is made,
+    at full speed."""
+    arm_kin = LWR4Kinematics()
+    arm_kin.base = np.eye(4)
+    arm_kin.base[:3, 3] = [-0.454, 0.0, 0.181]
+    q = np.array([51.9, -112.8, -63.0, 70.0, -90.4, 63.0, 170.0]) * DEG
+    q[6] = Q_MAX[6]
+    T = arm_kin.fk(q)
+    retreat_s = np.array([-0.029, 0.045, -0.05, 0.0, 0.0, 0.0])
+    sol = arm_kin.resolved_rate(q, body_to_spatial(T, retreat_s), dt=0.004, return_info=True)
+    assert sol.saturated[6] and not sol.saturated[:6].any()
+    assert sol.scale > 0.99
+    assert np.linalg.norm(sol.residual[:3]) < 1e-6                        # the translation, exactly
+    axis = T[:3, 2]
+    turn = sol.residual[3:]
+    assert np.linalg.norm(turn - (turn @ axis) * axis) < 0.02 * np.linalg.norm(turn) + 1e-9  # only about the normal
