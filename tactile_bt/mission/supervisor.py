@@ -333,8 +333,9 @@ class Supervisor:
         if value > run.peak:
             run.peak = value
         if t - run.start_s >= self.limits.grace_s:
-            self._end(f"{limit} limit: {value:.4g} {unit} above {bound:.4g} {unit} at {t:.2f} s, still after "
-                      f"{t - run.start_s:.2f} s of retreat (since {run.start_s:.2f} s)")
+            self._end(f"{limit} limit: {value:.4g} {unit} above {bound:.4g} {unit} at {t:.2f} s, still "
+                      f"{t - run.start_s:.2f} s after the intervention began (since {run.start_s:.2f} s, "
+                      f"{run.retreat_s:.2f} s of them in retreat)")
             return np.zeros(6)
         self._retreated = run
         retreat = self._retreat.copy()

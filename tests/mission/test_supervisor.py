@@ -105,7 +105,8 @@ def test_a_limit_that_persists_past_the_grace_time_ends_the_mission_naming_it():
     status, reason = sup.outcome
     assert status == "failure"
     assert reason.startswith("supervisor: pressure limit: 4800 Pa above 4000 Pa at 2.50 s"), reason
-    assert "since 2.00 s" in reason
+    assert "since 2.00 s" in reason and "0.50 s after the intervention began" in reason
+    assert reason.endswith("of them in retreat)")
     summary = sup.summary()
     assert summary["interventions"] == 1 and summary["ended_mission"] == reason
     assert summary["longest_intervention_s"] == pytest.approx(0.5, abs=1.5 * DT)
@@ -121,6 +122,9 @@ def test_a_tree_that_keeps_pushing_back_cannot_outlast_the_grace_time():
             break
     assert sup.outcome is not None and "pressure limit" in sup.outcome[1]
     assert len(sup.interventions) == 1
+    # the reason says how little of the grace time the pad was pulled back: one cycle in four
+    retreat = float(sup.outcome[1].split(", ")[-1].split(" s of them")[0])
+    assert retreat == pytest.approx(0.125, abs=2 * DT)
 
 
 def test_an_intervention_ends_after_the_clear_time_and_hands_the_twist_back():
@@ -277,7 +281,7 @@ def test_a_tree_pressing_into_a_rigid_pen_is_pulled_back_and_the_mission_fails_n
     r = result.report
     assert r["status"] == "failure"
     assert r["reason"].startswith("supervisor: pressure limit: "), r["reason"]
-    assert "above 4000 Pa" in r["reason"] and "of retreat" in r["reason"]
+    assert "above 4000 Pa" in r["reason"] and "of them in retreat" in r["reason"]
     sup = r["supervisor"]
     assert sup["interventions"] >= 1 and sup["retreat_time_s"] > 0.1
     start = sup["runs"][0]["start_s"]
