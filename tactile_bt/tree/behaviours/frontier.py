@@ -31,9 +31,8 @@ explain it; an edge, a stall, a jump, a lost contact or a target not reached in 
 (the surface beyond may go on), except at the rim of a hollow in the touched area narrower
 than the pad (a valley it bridges), and except that a stall, a lost contact or a target not reached
 while the arm held a joint at its position limit (within the last second, from
-``/robot/joints_held``, :data:`tactile_bt.tree.blackboard.JOINTS_HELD`; the flange's own
-rotation, joint 7, aside: it only keeps the pad from turning about its normal) is the arm's
-reach, which does. It succeeds only when at most ``max_unexplained_m`` is left
+``/robot/joints_held``, :data:`tactile_bt.tree.blackboard.JOINTS_HELD`) is the arm's reach,
+which does. It succeeds only when at most ``max_unexplained_m`` is left
 unexplained, and fails otherwise, its message naming what is left. Before it re-approaches, and
 before it ends while the band the table left at the foot of plane faces is large, it asks for a
 border sweep (``max_sweeps``, :mod:`tactile_bt.tree.behaviours.border_sweep`) of that foot or of
@@ -89,10 +88,6 @@ _BAND_WORTH = 0.01
 _HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
 #: A joint held at its limit this recently (s) explains those ends.
 _HELD_S = 1.0
-#: ... but not the flange's own rotation (the LWR 4's joint 7): on its stop it takes from the arm
-#: only the pad's turn about its normal (:mod:`tactile_bt.robot.resolved_rate`), which stops
-#: no slide.
-_FLANGE_JOINT = 7
 
 
 class FrontierGuidance(FrontierLeft, TactileBehaviour):
@@ -446,7 +441,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
 
     def update(self) -> Status:
         self._feedback = None
-        held = tuple(j for j in joints_held() if j != _FLANGE_JOINT)
+        held = joints_held()
         if held:
             self._held = (held, self.now)
         point = self._contact_point()
