@@ -22,7 +22,6 @@ def test_extreme_case_is_finite_and_as_expected(case):
     if case.name == "joint limit":
         assert row["min_joint_margin_deg"] == pytest.approx(0.0, abs=1e-6)  # driven into the limit
         assert row["min_joint_margin_deg"] >= -1e-6  # ... and never past it
-        assert row["max_penetration_mm"] < 0.1  # the turn it cannot make moves nothing else
     if case.name == "singularity":
         assert row["min_manipulability"] < 0.005  # the arm was stretched
 
