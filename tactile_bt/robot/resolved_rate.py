@@ -16,10 +16,12 @@ null space (after Flacco, De Luca & Khatib 2012, "SNS"): a joint that would leav
 the next step is fixed at the velocity that just reaches the limit, and the remaining joints
 are re-solved for the rest of the twist, so a 7-DOF arm keeps the commanded Cartesian motion
 while one joint rests on its stop.  When that joint is the last (the flange's own rotation, which
-the others can hardly make up for), the re-solve leaves out the rotation about its axis: the pad
-stops turning about its normal and keeps every other part of the twist, instead of slowing the
-whole twist down to a standstill (a retreat from the object held still by a turn the wrist
-cannot make).  Joint velocity limits scale the whole vector (the direction
+the others can hardly make up for) and the twist is a pure translation (no rotation asked, as
+the supervisor's retreat), the re-solve leaves out holding the orientation about its axis: the
+pad moves as asked and may turn about its normal, instead of being held still by a hold of the
+orientation the others cannot make (a retreat from the object slowed to a few per cent).  Any
+other twist keeps all six parts; a motion that turns or rolls the pad then slows down on its
+path, which the table guard's prediction of the corners relies on.  Joint velocity limits scale the whole vector (the direction
 is kept), and the limits are checked on the scaled velocities.  With the velocity limits on, the
 re-solve is *undamped* (pseudo-inverse with a rank cut-off at 1e-9): where the remaining joints
 can make the twist only with large velocities (their Jacobian near singular), the scaling slows
@@ -191,8 +193,8 @@ class ResolvedRateMixin:
             rest = Vh - Jh[:, ~free] @ qd[~free]
             sub = None if null is None else null[free]
             rows = Jh[:, free]
-            if not free[-1]:  # the flange's own rotation is on its stop: give up turning about its axis
-                keep = _without_axis(J[3:, -1])
+            if not free[-1] and not np.any(Vh[3:]):  # a pure translation with the flange's own rotation
+                keep = _without_axis(J[3:, -1])      # on its stop: the pad may turn about that axis
                 rows, rest = keep @ rows, keep @ rest
             # With the speed scaling, undamped: exact where the other joints can do it. Damping
             # would trade the rotation they can hardly make for a translation nobody asked for
