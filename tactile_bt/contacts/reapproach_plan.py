@@ -40,9 +40,8 @@ class ReapproachPlan:
     def __init__(self, beyond_m: float = 0.02, radius_m: float = 0.02) -> None:
         self.beyond_m = float(beyond_m)
         self.radius_m = float(radius_m)
-        #: World xy (m) of the frontier cells re-approached so far, and what each found.
+        #: World xy (m) of the frontier cells re-approached so far.
         self.tried: list[np.ndarray] = []
-        self.results: list[str] = []
 
     def choose(self, m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, reason: np.ndarray,
                from_xy: np.ndarray, max_tilt_rad: float) -> dict | None:
@@ -72,7 +71,6 @@ class ReapproachPlan:
     def apply(self, m: FrontierMap, job: dict) -> str:
         """Apply the ``result`` of a carried-out re-approach to the map; returns it."""
         result = str(job.get("result", ""))
-        self.results.append(result)
         if result == "surface":
             m.unblock(job["frontier_xy"], self.radius_m)
         elif result:
