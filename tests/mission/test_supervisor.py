@@ -123,8 +123,9 @@ def test_a_tree_that_keeps_pushing_back_cannot_outlast_the_grace_time():
     assert sup.outcome is not None and "pressure limit" in sup.outcome[1]
     assert len(sup.interventions) == 1
     # the reason says how little of the grace time the pad was pulled back: one cycle in four
-    retreat = float(sup.outcome[1].split(", ")[-1].split(" s of them")[0])
+    retreat = sup.interventions[0].retreat_s
     assert retreat == pytest.approx(0.125, abs=2 * DT)
+    assert sup.outcome[1].endswith(f", {retreat:.2f} s of them in retreat)")
 
 
 def test_an_intervention_ends_after_the_clear_time_and_hands_the_twist_back():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from tactile_bt.control.spatial import body_to_spatial
+from tactile_bt.control.spatial import body_to_spatial, make_pose
 from tactile_bt.robot.arm import CompliantArm
 from tactile_bt.robot.kinematics import Q_MAX, Q_MIN, Q_READY, LWR4Kinematics
 from tactile_bt.robot.redundancy import LimitAvoidance, joint_margins
@@ -147,16 +147,14 @@ def test_a_saturated_wrist_joint_does_not_make_the_pad_jump(kin):
     assert abs(r[3:] @ arm.T_gs[:3, 2]) > 0.5 and np.linalg.norm(r[:3]) < 0.05
 
 
-def test_with_the_wrist_on_its_stop_a_retreat_still_moves_the_pad_away(kin):
+def test_with_the_wrist_on_its_stop_a_retreat_still_moves_the_pad_away():
     """The supervisor's retreat (back along the normal and away from a contact at the border, a
     pure translation) with joint 7 on its upper stop, in a posture of a torus scan: the six other
     joints cannot hold the pad's orientation about its normal as well, and they used to slow the
     whole retreat to under a tenth. Now the pad may turn about its normal: every other part of
     the retreat is made, at full speed. A motion that also turns the pad keeps all of it, slowed
     down on its path (the table guard predicts the corners from it)."""
-    arm_kin = LWR4Kinematics()
-    arm_kin.base = np.eye(4)
-    arm_kin.base[:3, 3] = [-0.454, 0.0, 0.181]
+    arm_kin = LWR4Kinematics(base=make_pose(None, np.array([-0.454, 0.0, 0.181])))  # sim/scan_torus.yaml
     q = np.array([51.9, -112.8, -63.0, 70.0, -90.4, 63.0, 170.0]) * DEG
     q[6] = Q_MAX[6]
     T = arm_kin.fk(q)
