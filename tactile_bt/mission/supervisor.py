@@ -216,6 +216,7 @@ class Supervisor:
         self._clear_since: float | None = None
         self._t_prev = 0.0
         self._retreated: Intervention | None = None  # the intervention of last cycle's retreat
+        self._two_regions_at = -math.inf  # when the pad last bore more than one contact region
         self.peaks = _Peaks()
         self.last_command = np.zeros(6)
         publish(False, "")
@@ -262,6 +263,8 @@ class Supervisor:
             self._end(fault)
             return self._send(np.zeros(6))
         pressure, force = features.pressure, features.force
+        if features.in_contact and features.others_tactels > 0:
+            self._two_regions_at = t
         peaks = self.peaks
         if pressure > peaks.pressure_pa:
             peaks.pressure_pa = pressure
@@ -320,7 +323,9 @@ class Supervisor:
         pad's plane, as much faster as the contact is nearer the border: an object pressing on
         the pad's border may lie beside it, where backing off along the normal alone drags the
         border along it. With contacts on both sides (a pad bridging a groove) sliding away from
-        one presses the other: the retreat is along the normal alone."""
+        one presses the other: the retreat is along the normal alone, also when the other region
+        was seen only within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S`` (a pad rocking from rim to rim bears
+        one at a time)."""
         unit = _UNITS[limit]
         bound = getattr(self.limits, f"{limit}_limit_{unit.lower()}")
         run = self._current
@@ -341,7 +346,8 @@ class Supervisor:
         retreat = self._retreat.copy()
         if tree_vz < retreat[2]:
             retreat[2] = tree_vz
-        if features is not None and features.in_contact and not features.others_tactels:
+        if features is not None and features.in_contact and not features.others_tactels \
+                and t - self._two_regions_at > defaults.SUPERVISOR_BRIDGE_MEMORY_S:
             x, y = features.cop_xy
             half = 0.5 * min(features.pad.size_m)
             if math.isfinite(x) and math.isfinite(y) and half > 0:

@@ -85,6 +85,20 @@ def test_a_contact_at_the_pad_s_border_is_left_sideways_as_well():
     np.testing.assert_allclose(sup.check(bridged, PAD_DOWN, TREE_TWIST, 1.008)[:3], [0.0, 0.0, -0.02], atol=1e-12)
 
 
+def test_a_pad_rocking_between_two_rims_is_not_slid_into_the_other_one():
+    # A flat pad over a groove rocks from one rim to the other and bears them one at a time: a
+    # frame with the far rim's region shortly before the push counts, and the retreat is along
+    # the normal alone; once no second region has been seen for a while, the slide comes back.
+    sup = Supervisor(SupervisorLimits(pressure_limit_pa=4000.0, retreat_speed_mps=0.02))
+    near_rim = make_features(cop_px=(7.5, 0.0), pressure=4500.0, area=16)
+    far_rim_too = dataclasses.replace(make_features(cop_px=(7.5, 0.0), pressure=1500.0, area=16),
+                                      others_force=0.4, others_tactels=16)
+    assert np.array_equal(sup.check(far_rim_too, PAD_DOWN, TREE_TWIST, 1.0), TREE_TWIST)
+    np.testing.assert_allclose(sup.check(near_rim, PAD_DOWN, TREE_TWIST, 1.1)[:3], [0.0, 0.0, -0.02], atol=1e-12)
+    later = sup.check(near_rim, PAD_DOWN, TREE_TWIST, 1.5)
+    assert later[1] > 0.0  # away from the rim under the border row y = 0, in the pad's plane
+
+
 def test_above_the_force_cap_it_retreats_even_at_a_moderate_pressure():
     sup = Supervisor(SupervisorLimits())  # 20 N cap
     features = press(3000.0, area=256)  # 3 kPa over the whole pad: 19.2 N
