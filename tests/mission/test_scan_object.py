@@ -22,6 +22,8 @@ from tactile_bt.tree.behaviours import (TactileBehaviour, Centre, CentreTo, Cove
                                         RollTo, SquareToSlope, TableClearance, TableOffset)
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
+from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
+from tactile_bt.contacts.frontier_map import EXPLAINING
 from tactile_bt.tree.blackboard import JOINTS_HELD, POSE
 from scan_helpers import disc, ticks_until_done
 
@@ -504,6 +506,25 @@ def test_a_pad_corner_near_the_table_backs_off_and_the_scan_goes_on():
         assert h.tick(make_features()) == Status.RUNNING
     assert leaf.target is not None and leaf.direction[0] < 0.9 and leaf.attempts == 2
     assert "table" in leaf.explained()
+
+
+def test_a_supervisor_intervention_ends_the_attempt_and_the_pad_backs_off():
+    leaf, h = planner_harness(disc(0.02), (0.015, 0.0), speed_mps=0.02)
+    h.tick(make_features())
+    assert leaf.target is not None and guidance()[0] > 0.019  # towards the rim at +x
+    h.set(RETREATING, True)
+    h.set(REASON, "pressure 4500 Pa above the limit 4000 Pa at 1.00 s")
+    assert h.tick(make_features()) == Status.RUNNING
+    assert leaf.ends["pressure"] == 1 and leaf.target is None
+    assert leaf.feedback_message.startswith("backing off (the supervisor pulled back (pressure 4500 Pa")
+    assert guidance()[0] < 0  # away from where it pressed
+    rows, cols, out = leaf.map.frontier()
+    blocked = leaf.map.blocked[rows, cols].any(axis=1)
+    assert blocked.any() and np.all(out[blocked][:, 0] > 0)  # that way only
+    assert "pressure" not in EXPLAINING  # a limit passed explains no frontier
+    for _ in range(5):  # one intervention, one end, however long it lasts
+        h.tick(make_features())
+    assert leaf.ends["pressure"] == 1
 
 
 @pytest.mark.parametrize("case", ["stays", "hits", "again"])

@@ -22,7 +22,9 @@ frontier cells under the pad whose open side faces the way the pad was going are
 for that direction, and the next target is chosen away from it. A recovering ``table_clearance``
 guard's alarm (``alarm_key``: the pad's corner has come too close to the table after all) ends
 an attempt the same way, the frontier towards the corner blocked as the table's, and the pad
-backs off away from the corner.
+backs off away from the corner. So does an intervention of the supervisor
+(``/supervisor/retreating``: a force or pressure limit passed), the frontier blocked for
+"pressure", which explains nothing: the pad does not press on where it was just pulled back.
 
 When no reachable frontier is left, the leaf sums the frontier left by reason
 (:meth:`FrontierGuidance.frontier_left`, also on ``/scan/frontier_left`` for the report and for
@@ -55,6 +57,7 @@ from tactile_bt.contacts.reapproach_plan import ReapproachPlan
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, FrontierLeft
 from tactile_bt.tree.behaviours.scan import tangent_guidance
+from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import joints_held, read_or, write
@@ -162,6 +165,8 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         self._setup.register_key(key=self.table_key, access=Access.READ)
         self.alarm_key = normalise_key(self.alarm_key)
         self._setup.register_key(key=self.alarm_key, access=Access.READ)
+        for key in (RETREATING, REASON):
+            self._setup.register_key(key=key, access=Access.READ)
         self._setup.register_key(key=self.end_key, access=Access.READ)
         if self.reapproach_key:
             self.reapproach_key = normalise_key(self.reapproach_key)
@@ -193,6 +198,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         self._alarmed = False  # backing off from the guard's current alarm
+        self._intervened = False  # backing off from the supervisor's current intervention
         self._state = "waiting for contact"
         self._reset_motion()
 
@@ -433,6 +439,26 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         self._start_retreat(point, why, -low)
         return True
 
+    def _supervisor_alarm(self, point: np.ndarray) -> bool:
+        """React to an intervention of the supervisor (a force or pressure limit passed,
+        :data:`~tactile_bt.tree.behaviours.supervision.RETREATING`): end the attempt, block the
+        frontier it was heading for ("pressure", which explains nothing) and back off, rather
+        than press on where the supervisor has just pulled the pad back (a pad rocking between
+        the rims of a groove, its servo pressing it back onto one between the supervisor's
+        retreats, until the grace time was over). Once per intervention. True when it has just
+        started backing off."""
+        if not read_or(RETREATING, False):
+            self._intervened = False
+            return False
+        if self._intervened:
+            return False
+        self._intervened = True
+        why = f"the supervisor pulled back ({read_or(REASON, '')})"
+        if self.map is not None and self.target is not None:
+            self._block(point, why, cause="pressure")
+        self._start_retreat(point, why)
+        return True
+
     # -- the life cycle ----------------------------------------------------------------------
     def initialise(self) -> None:
         self.table_z_m = table_height(self._setup, self.table_key)
@@ -454,7 +480,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
             return Status.RUNNING
         self._last_point = point
         now = self.now
-        if self._table_alarm(point):
+        if self._table_alarm(point) or self._supervisor_alarm(point):
             self._next_plan = now
         if self._retreat is not None and self._retreating(point):
             return Status.RUNNING
