@@ -37,11 +37,9 @@ wrist's singularity, or with joints on their stops, it can buy a fast turn the w
 make with a slide of the pad centre that nobody asked for (0.5 m/s in a groove scan).  A solution
 whose pad-centre velocity misses the commanded one by more than slowing down on the path or
 leaving out a direction explains (``|realised - commanded|`` or ``|realised|`` above
-``|commanded| + defaults.RATE_OFF_PATH_MPS``) is solved again, when no joint is on its stop, with the turn rows
-weighted by ``defaults.RATE_TURN_LENGTH_M``: a turn then counts as the motion it gives the pad's
-border, the pad centre keeps its path, and the turn is what gives way.  With joints on their
-stops, or when that does not help, the pad is held: leaving out the turn there lets the pad slide
-on where the table guard predicts it turning (the last-bit runs of ``scan_box_turned``).
+``|commanded| + defaults.RATE_OFF_PATH_MPS``) is solved again with the turn rows weighted by
+``defaults.RATE_TURN_LENGTH_M``: a turn then counts as the motion it gives the pad's border, the
+pad centre keeps its path, and the turn is what gives way.
 
 Null space
 ----------
@@ -186,19 +184,12 @@ class ResolvedRateMixin:
         solve = (lo, hi, damping, sigma_threshold, null, null_speed_max, velocity_limits, J[3:, -1])
         qd, lam, smin, free, scale = self._solve(Jh, Vh, *solve)
         if _off_path(Jh @ qd, Vh):
-            if free.all():
-                # Near a singularity the damped trade of the twist's parts, in metres against
-                # radians, can throw the pad centre off its path (a turn the wrist can hardly
-                # make bought with a slide of half a metre per second): solve again with the
-                # turn weighted as the motion it gives the pad's border.
-                weight = _TURN_WEIGHT
-                qd, lam, smin, free, scale = self._solve(weight[:, None] * Jh, weight * Vh, *solve)
-            if not free.all() or _off_path(Jh @ qd, Vh):
-                # With joints on their stops the rest cannot make the motion without leaving the
-                # path: hold the pad (joints on their stops only as far as their bounds allow),
-                # as the speed scaling does where the rest is out of reach.
-                qd = np.minimum(np.maximum(np.zeros(7), lo), hi)
-                scale = 0.0
+            # Near a singularity or with joints on their stops the least-squares trade of the
+            # twist's parts, in metres against radians, can throw the pad centre off its path
+            # (a turn the wrist can hardly make bought with a slide of half a metre per second):
+            # solve again with the turn weighted as the motion it gives the pad's border.
+            weight = _TURN_WEIGHT
+            qd, lam, smin, free, scale = self._solve(weight[:, None] * Jh, weight * Vh, *solve)
         if return_info:
             return RateSolution(qd, lam, smin, ~free, scale, Vh - Jh @ qd)
         return qd
