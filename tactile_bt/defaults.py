@@ -117,13 +117,6 @@ TWIST_ANGULAR_LIMIT_RPS: float = 1.5
 ARM_STIFFNESS_NM_PER_RAD: float = 200.0
 #: Joint damping of the compliance mode (N m s/rad, paper Sec. V).
 ARM_DAMPING_NMS_PER_RAD: float = 0.2
-#: Resolved rates that would move the pad centre off its commanded path by more than this (m/s)
-#: beyond what slowing down or leaving out a direction explains are solved again with the turn
-#: weighted by ``RATE_TURN_LENGTH_M`` (tactile_bt.robot.resolved_rate).
-RATE_OFF_PATH_MPS: float = 0.005
-#: ... a turn of 1 rad/s then weighs as much as a motion of this many m/s: about the pad's half
-#: width, so that the solve trades the pad's points' motion, not radians against metres.
-RATE_TURN_LENGTH_M: float = 0.05
 
 #: A point of a scanned surface counts as covered within this distance (m) of a contact: in the
 #: scan figures (tactile_bt.mission.accuracy) and in the frontier planner's estimate of the band

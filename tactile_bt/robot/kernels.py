@@ -53,7 +53,6 @@ import math
 import numpy as np
 from numba import njit
 
-from tactile_bt import defaults
 from tactile_bt.robot.layout import Layout
 
 __all__ = [
@@ -101,9 +100,6 @@ KIN = Layout("kinematic model", ("d", 7), ("a", 7), ("cos_alpha", 7), ("sin_alph
 K_D, K_A, K_CA, K_SA, K_BASE, K_MOUNT, K_QMIN, K_QMAX, K_QDMAX = map(KIN.offset, KIN.fields)
 #: Length of the packed kinematic model.
 KIN_SIZE = KIN.size
-#: See :func:`rates_fast` (a module constant, as numba freezes globals).
-OFF_PATH_MPS = defaults.RATE_OFF_PATH_MPS
-
 #: The packed arm (:func:`pack_arm`): joint stiffness and damping; limit avoidance: on/off, gain,
 #: wrist band, wrist weight, speed cap, per-joint weights.
 ARM = Layout("arm", ("stiffness", 7), ("damping", 7), ("avoid_on", 1), ("gain", 1), ("wrist_band", 1),
@@ -361,8 +357,7 @@ def rates_fast(q, twist, kin, arm, dt, damping, eps, out):
     Writes ``q_dot``, the damping, sigma_min, the speed scale, no saturated joint and the
     residual hybrid twist into ``out`` (the ``O_QD`` ... part of :func:`arm_step`'s output) and
     returns True; returns False, writing nothing, when a joint would pass its limit (the
-    saturation loop of the Python solve is needed) or the pad centre would leave its commanded
-    path (the Python solve's second, turn-weighted solve is needed; ``defaults.RATE_OFF_PATH_MPS``).
+    saturation loop of the Python solve is needed).
     """
     n = q.shape[0]
     T = np.empty((4, 4))
@@ -401,19 +396,6 @@ def rates_fast(q, twist, kin, arm, dt, damping, eps, out):
     if not math.isfinite(norm2):
         for i in range(n):
             qd[i] = 0.0
-    res = np.empty(6)
-    for k in range(6):
-        acc = 0.0
-        for i in range(n):
-            acc += J[k, i] * qd[i]
-        res[k] = Vh[k] - acc
-    # the pad centre off its commanded path: the Python solve weighs the turn and solves again
-    reach = math.sqrt(Vh[0] * Vh[0] + Vh[1] * Vh[1] + Vh[2] * Vh[2]) + OFF_PATH_MPS
-    done = 0.0  # |realised|^2 of the pad centre
-    for k in range(3):
-        done += (Vh[k] - res[k]) * (Vh[k] - res[k])
-    if res[0] * res[0] + res[1] * res[1] + res[2] * res[2] > reach * reach or done > reach * reach:
-        return False
     for i in range(n):
         out[O_QD + i] = qd[i]
         out[O_SAT + i] = 0.0
@@ -421,7 +403,10 @@ def rates_fast(q, twist, kin, arm, dt, damping, eps, out):
     out[O_SMIN] = smin
     out[O_SCALE] = scale
     for k in range(6):
-        out[O_RRES + k] = res[k]
+        acc = 0.0
+        for i in range(n):
+            acc += J[k, i] * qd[i]
+        out[O_RRES + k] = Vh[k] - acc
     return True
 
 

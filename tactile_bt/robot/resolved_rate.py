@@ -31,15 +31,7 @@ damping turn the part they cannot make into a motion in another direction.  (Tha
 docs/scanning.md, "Limits".)  What they cannot do at all (the elbow's direction, with joint 4 on
 its stop) is dropped in the least-squares sense.  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
 centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
-damped (approximate) solution independent of where the base origin lies.  Where the solution is
-not exact, the least-squares trade weighs metres per second against radians per second; near the
-wrist's singularity, or with joints on their stops, it can buy a fast turn the wrist can hardly
-make with a slide of the pad centre that nobody asked for (0.5 m/s in a groove scan).  A solution
-whose pad-centre velocity misses the commanded one by more than slowing down on the path or
-leaving out a direction explains (``|realised - commanded|`` or ``|realised|`` above
-``|commanded| + defaults.RATE_OFF_PATH_MPS``) is solved again with the turn rows weighted by
-``defaults.RATE_TURN_LENGTH_M``: a turn then counts as the motion it gives the pad's border, the
-pad centre keeps its path, and the turn is what gives way.
+damped (approximate) solution independent of where the base origin lies.
 
 Null space
 ----------
@@ -63,7 +55,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile_bt import defaults
 from tactile_bt.control.spatial import skew
 
 __all__ = ["RateSolution", "ResolvedRateMixin"]
@@ -181,23 +172,6 @@ class ResolvedRateMixin:
             lo = np.minimum((self.q_min - q) / dt, 0.0)
             hi = np.maximum((self.q_max - q) / dt, 0.0)
 
-        solve = (lo, hi, damping, sigma_threshold, null, null_speed_max, velocity_limits, J[3:, -1])
-        qd, lam, smin, free, scale = self._solve(Jh, Vh, *solve)
-        if _off_path(Jh @ qd, Vh):
-            # Near a singularity or with joints on their stops the least-squares trade of the
-            # twist's parts, in metres against radians, can throw the pad centre off its path
-            # (a turn the wrist can hardly make bought with a slide of half a metre per second):
-            # solve again with the turn weighted as the motion it gives the pad's border.
-            weight = _TURN_WEIGHT
-            qd, lam, smin, free, scale = self._solve(weight[:, None] * Jh, weight * Vh, *solve)
-        if return_info:
-            return RateSolution(qd, lam, smin, ~free, scale, Vh - Jh @ qd)
-        return qd
-
-    def _solve(self, Jh, Vh, lo, hi, damping, sigma_threshold, null, null_speed_max, velocity_limits, axis7):
-        """The damped least-squares solve of the rows ``Jh`` for ``Vh`` with the saturation
-        loop and the speed scaling (:meth:`resolved_rate`); ``(q_dot, lambda, sigma_min, free
-        joints, scale)``."""
         qd, lam, smin = damped_least_squares(Jh, Vh, damping, sigma_threshold, null, null_speed_max)
         free = np.ones(7, dtype=bool)
         peak = self._speed_peak(qd) if velocity_limits else 1.0
@@ -220,7 +194,7 @@ class ResolvedRateMixin:
             sub = None if null is None else null[free]
             rows = Jh[:, free]
             if not free[-1] and not np.any(Vh[3:]):  # a pure translation with the flange's own rotation
-                keep = _without_axis(axis7)           # on its stop: the pad may turn about that axis
+                keep = _without_axis(J[3:, -1])      # on its stop: the pad may turn about that axis
                 rows, rest = keep @ rows, keep @ rest
             # With the speed scaling, undamped: exact where the other joints can do it. Damping
             # would trade the rotation they can hardly make for a translation nobody asked for
@@ -239,25 +213,13 @@ class ResolvedRateMixin:
             qd = np.minimum(np.maximum(qd, lo), hi)
         if not math.isfinite(float(qd @ qd)):  # cannot happen with finite inputs; belt and braces
             qd = np.zeros(7)
-        return qd, lam, smin, free, scale
+        if return_info:
+            return RateSolution(qd, lam, smin, ~free, scale, Vh - Jh @ qd)
+        return qd
 
     def _speed_peak(self, qd: np.ndarray) -> float:
         """``max(1, max_i |qd_i| / qd_max_i)``: the factor that brings ``qd`` within the velocity limits."""
         return max(1.0, float(np.max(np.abs(qd) / self.qd_max)))
-
-
-#: Row weights of the hybrid twist ``[p_dot; w]`` in the second solve (:func:`_off_path`).
-_TURN_WEIGHT = np.array([1.0, 1.0, 1.0, *[defaults.RATE_TURN_LENGTH_M] * 3])
-
-
-def _off_path(realised: np.ndarray, commanded: np.ndarray, tol: float = defaults.RATE_OFF_PATH_MPS) -> bool:
-    """Whether the pad centre's realised velocity (the first three of a hybrid twist, m/s) is
-    off its commanded one by more than slowing down on the path or leaving out a direction the
-    arm cannot move in explains, plus ``tol`` (m/s): either keeps ``|realised - commanded|`` and
-    ``|realised|`` within ``|commanded|``."""
-    e = realised[:3] - commanded[:3]
-    reach = math.sqrt(float(commanded[:3] @ commanded[:3])) + tol
-    return float(e @ e) > reach * reach or float(realised[:3] @ realised[:3]) > reach * reach
 
 
 def _without_axis(axis: np.ndarray) -> np.ndarray:

@@ -116,7 +116,7 @@ def test_compiled_resolved_rates_match_the_python_solve_or_hand_it_back(fr, seed
     null = None if avoid is None else avoid.q_dot(q, kin.q_min, kin.q_max)
     sol = kin.resolved_rate(q, V, dt=dt, damping=0.05, sigma_threshold=0.05, q_dot_null=null,
                             null_speed_max=None if avoid is None else avoid.speed_max, return_info=True)
-    if not done:  # handed back: the Python solve had to hold a joint on its limit, or weigh the turn
+    if not done:  # handed back: the Python solve had to hold a joint on its limit
         peak = max(1.0, float(np.max(np.abs(sol.q_dot) / kin.qd_max)))
         assert sol.saturated.any() or peak > 0  # (the saturation loop ran; nothing else to compare)
         return
