@@ -324,8 +324,8 @@ class Supervisor:
         the pad's border may lie beside it, where backing off along the normal alone drags the
         border along it. With contacts on both sides (a pad bridging a groove) sliding away from
         one presses the other: the retreat is along the normal alone, also when the other region
-        was seen only within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S`` (a pad rocking from rim to rim bears
-        one at a time)."""
+        was seen only within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S`` (a pad rocking from rim to
+        rim bears one at a time)."""
         unit = _UNITS[limit]
         bound = getattr(self.limits, f"{limit}_limit_{unit.lower()}")
         run = self._current

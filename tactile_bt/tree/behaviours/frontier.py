@@ -197,8 +197,7 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         self.face_z = np.zeros(0)
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
-        self._alarmed = False  # backing off from the guard's current alarm
-        self._intervened = False  # backing off from the supervisor's current intervention
+        self._alarms_on: set[str] = set()  # the alarms answered already ("table", "supervisor")
         self._state = "waiting for contact"
         self._reset_motion()
 
@@ -420,17 +419,24 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         self._state = f"backing off ({why})"
         return True
 
+    def _alarm_begins(self, alarm: str, on: bool) -> bool:
+        """Whether ``alarm`` (on or off this tick) has just come on: True on its first tick
+        only, so that an alarm lasting many ticks ends one attempt."""
+        if not on:
+            self._alarms_on.discard(alarm)
+            return False
+        if alarm in self._alarms_on:
+            return False
+        self._alarms_on.add(alarm)
+        return True
+
     def _table_alarm(self, point: np.ndarray) -> bool:
         """React to a new alarm of the table-clearance guard (the pad's lowest corner, world, at
         ``alarm_key``): end the attempt, block the frontier towards the corner as the table's
         and back off away from it. True when it has just started backing off."""
         corner = read_or(self.alarm_key)
-        if corner is None:
-            self._alarmed = False
+        if not self._alarm_begins("table", corner is not None):
             return False
-        if self._alarmed:
-            return False
-        self._alarmed = True
         low = np.asarray(corner, dtype=float)[:2] - self.pose[:2, 3]
         low = low / max(float(np.linalg.norm(low)), 1e-9)
         why = "the table-clearance guard tripped"
@@ -447,12 +453,8 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
         the rims of a groove, its servo pressing it back onto one between the supervisor's
         retreats, until the grace time was over). Once per intervention. True when it has just
         started backing off."""
-        if not read_or(RETREATING, False):
-            self._intervened = False
+        if not self._alarm_begins("supervisor", bool(read_or(RETREATING, False))):
             return False
-        if self._intervened:
-            return False
-        self._intervened = True
         why = f"the supervisor pulled back ({read_or(REASON, '')})"
         if self.map is not None and self.target is not None:
             self._block(point, why, cause="pressure")
