@@ -49,11 +49,11 @@ def twin(scene: str, out: Path, *extra: str, domain: int):
 
 
 def relaxed(robot: Path) -> Path:
-    """The twin's robot file with a silent sensor and a stale pose taken at 0.1 s: for the tests
-    that are not about those faults, so that a test machine busy with other work (a frame 20 ms
-    late now and then) does not end them."""
+    """The twin's robot file with a silent sensor and a stale pose taken at 0.5 s: for the tests
+    that are not about those faults, so that a test machine busy with other work does not end
+    them (with two other missions on its two cores, frames came over 100 ms late)."""
     copy = robot.with_name("robot_relaxed.yaml")
-    copy.write_text(robot.read_text() + "supervisor: {sensor_silence_s: 0.1, pose_stale_s: 0.1}\n")
+    copy.write_text(robot.read_text() + "supervisor: {sensor_silence_s: 0.5, pose_stale_s: 0.5}\n")
     return copy
 
 
