@@ -41,6 +41,10 @@ border sweep (``max_sweeps``, :mod:`tactile_bt.tree.behaviours.border_sweep`) of
 the sides of a hollow in the touched area the same way. It knows nothing of the
 object's size, pose or shape beyond what the pad has touched.
 
+The ends of attempts, the blocks and the backing off are the mixin of
+:mod:`tactile_bt.tree.behaviours.frontier_ends`; the frontier left, the re-approaches and the
+sweeps that of :mod:`tactile_bt.tree.behaviours.frontier_left`.
+
 Layer: tree.
 """
 
@@ -55,26 +59,20 @@ from py_trees.common import Access, Status
 from tactile_bt.contacts.frontier_map import FrontierMap, describe_left
 from tactile_bt.contacts.reapproach_plan import ReapproachPlan
 from tactile_bt.tree.behaviours.base import TactileBehaviour
+from tactile_bt.tree.behaviours.frontier_ends import FrontierEnds
 from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, FrontierLeft
 from tactile_bt.tree.behaviours.scan import tangent_guidance
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
-from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, TABLE_Z_KEY, lowest_corner, table_height
-from tactile_bt.tree.blackboard import joints_held, read_or, write
+from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
+from tactile_bt.tree.blackboard import joints_held, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
 __all__ = ["FrontierGuidance", "FRONTIER_LEFT_KEY"]
 
-#: Ends of an attempt at an edge under the pad (its imprint reached the edge across its width).
-_EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
-#: Half the width (m) of the strip between two contacts the pad bridged that the map marks as a
-#: hollow (the contacts' centres lie mid-way along their lines).
-_BRIDGED_HALF_WIDTH_M = 0.01
 #: Backing off ends once the pad is at most about 5° more tilted than at the attempt's start.
 _LEVEL_MARGIN_COS = 0.02
-#: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
-_SINKING_M = 0.0005
 _ZERO_TWIST = np.zeros(6)
 #: Time constant (s) of the low-pass filter on the contact point the planner steers from.
 _POINT_FILTER_S = 0.1
@@ -86,14 +84,9 @@ _SLOWEST = 0.1
 #: A band the table left at the foot of plane faces larger than this share of the touched area is
 #: swept (when sweeps are on) even when the scan could end without it.
 _BAND_WORTH = 0.01
-#: Ends an arm holding a joint at its limit explains: the pad stopped, or lost the contact,
-#: because the arm could not follow (its reach), not because the surface ends.
-_HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
-#: A joint held at its limit this recently (s) explains those ends.
-_HELD_S = 1.0
 
 
-class FrontierGuidance(FrontierLeft, TactileBehaviour):
+class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
     """Slide towards the nearest reachable frontier of the touched surface; SUCCESS when none is
     left (see the module docstring). Writes the guidance twist (sensor frame, m/s) to ``key``
     every tick, zero while it chooses or out of contact; put it in parallel with
@@ -125,32 +118,17 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
                                 doc="Width of the pad's frame around the sensing area, for the corners (m).")
     table_key = Parameter(TABLE_Z_KEY, fixed=True,
                           doc="Blackboard key of the table's height (m, world z; absent or NaN: no table).")
-    alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True,
-                          doc="Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a "
-                              "recovering ``table_clearance`` guard finds it too close to the table; None or absent "
-                              "otherwise).")
     end_key = Parameter(ATTEMPT_END_KEY, fixed=True,
                         doc="Blackboard key where the end-of-surface leaves (:mod:`~tactile_bt.tree.behaviours."
                             "surface_end`, with ``end_key``) write the end of an attempt.")
     attempt_key = Parameter(ATTEMPT_KEY, fixed=True,
                             doc="Blackboard key the attempt number is written to, so that those leaves start over "
                                 "with each attempt.")
-    block_radius_m = Parameter(0.0, bound=NON_NEGATIVE,
-                               doc="Radius around the pad centre within which frontier cells facing the way the pad "
-                                   "went are blocked when the attempt ends at an edge (the contact shrinks or the pad "
-                                   "rolls over it: the imprint has reached the edge across the pad; m; 0 = half the "
-                                   "pad's width).")
-    local_block_radius_m = Parameter(0.01, bound=NON_NEGATIVE,
-                                     doc="Radius around the contact point within which they are blocked at the other "
-                                         "ends: the tilt limit, the table, a stall, a jump or a loss of the contact "
-                                         "(m).")
-    retreat_m = Parameter(0.005, bound=NON_NEGATIVE,
-                          doc="After an attempt has ended the pad backs off, uphill and away from the way it went, at "
-                              "least this far (m) and until it is about as level as where the attempt started.")
     replan_s = Parameter(0.2, bound=POSITIVE, doc="Time between map updates and target choices (s).")
     attempt_s = Parameter(4.0, bound=POSITIVE,
                           doc="Time allowed to reach a target beyond the travel time at ``speed_mps``, and to back "
                               "off (s).")
+
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         super().__init__(name, *args, **parameters)
         self.key = normalise_key(self.key)
@@ -254,17 +232,6 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
             self._point = self._point + (point - self._point) * min(1.0, self.dt / _POINT_FILTER_S)
         return self._point
 
-    def _clearance(self) -> tuple[float, np.ndarray]:
-        """Height (m) of the pad's lowest corner above the table, and the corner (world)."""
-        if not math.isfinite(self.table_z_m):
-            return math.inf, np.zeros(3)
-        corner = lowest_corner(self.pose, self.pad, self.corner_margin_m)
-        return float(corner[2] - self.table_z_m), corner
-
-    def _tilt_cos(self) -> float:
-        """Cosine of the pad's tilt from the vertical."""
-        return -float(self.pose[2, 2])
-
     def _guide(self, world: np.ndarray | None) -> None:
         """Write the guidance along the world direction ``world`` (zero when None), slower as
         the contact nears the pad's border: sliding drags the contact towards the trailing
@@ -348,118 +315,6 @@ class FrontierGuidance(FrontierLeft, TactileBehaviour):
             return np.array([delta[0], delta[1], self._target_z - point[2]])
         self.direction = self._target_out
         return np.array([self.direction[0], self.direction[1], 0.0])
-
-    def _attempt_end(self, point: np.ndarray) -> tuple[str, bool]:
-        """Why the current attempt has come to an end ("" while it goes on), and whether at an
-        edge under the pad: an end-of-surface leaf's (on ``end_key``), the table or the time."""
-        end = read_or(self.end_key)
-        if end is not None and end.get("attempt") == self.attempts:
-            self._cause = end["cause"]
-            if "bridge" in end and self.map is not None:  # the pad rested on both sides of a hollow
-                self.map.mark_bridged(*end["bridge"], half_width_m=_BRIDGED_HALF_WIDTH_M)
-            return end["message"], self._cause in _EDGE_CAUSES
-        clearance, _ = self._clearance()
-        if clearance < self.table_clearance_m and clearance < self._clearance_start - _SINKING_M:
-            self._cause = "table"
-            return f"the pad's corner {clearance * 1e3:.1f} mm above the table", False
-        if self.now > self._deadline:
-            self._cause = "time"
-            return "target not reached in time", False
-        return "", False
-
-    def _block(self, point: np.ndarray, why: str, at_edge: bool = False, cause: str = "",
-               direction: np.ndarray | None = None) -> None:
-        """Block the frontier the attempt was heading for, in its direction (or ``direction``,
-        world xy), and count the end under ``cause``."""
-        if at_edge:  # the surface ends at an edge under the pad: as far as the pad reaches
-            radius, centre = self.block_radius_m or self.pad.half_width_m, self.pose[:3, 3]
-        else:  # too steep, the table, stuck: only this part of the frontier is out of reach
-            radius, centre = self.local_block_radius_m, point
-        d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
-        cause = cause or why
-        if cause in _HELD_CAUSES and self._held[0] and self.now - self._held[1] <= _HELD_S:
-            joints = " and ".join(str(j) for j in self._held[0])
-            why, cause = f"{why} with joint {joints} at its limit", "reach"
-        self.map.block(centre[:2], radius, d, cause=cause)
-        self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
-        if self.target is not None:
-            # the target and the frontier on the way to it, out of reach along this way
-            rows, cols, out = self.map.frontier()
-            xy = self.map.centre_of(rows, cols)
-            a, b = point[:2], self._target_xy
-            ab = b - a
-            u = np.clip(((xy - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
-            on_way = np.linalg.norm(xy - (a + u[:, None] * ab), axis=1) <= self.local_block_radius_m
-            on_way |= (rows == self.target[0]) & (cols == self.target[1])
-            self.map.block_cells(rows[on_way], cols[on_way], out[on_way], cause)
-        self.blocks += 1
-        self.ends[cause] += 1
-        self.last_end = why
-        self._avoid = np.array(d, dtype=float)
-        self.target = None
-
-    def _start_retreat(self, point: np.ndarray, why: str, away: np.ndarray | None = None) -> None:
-        """Back off, uphill and away from the way the attempt went (or along ``away``, world
-        xy), at least ``retreat_m``, until the pad is about as level as where the attempt
-        started and clear of the table: it may have rolled over an edge or down a slope."""
-        if away is None:
-            away = -(self.direction if np.any(self.direction) else self._target_out)
-        direction = np.array([away[0], away[1], 1.0])  # the world's up is uphill on the pad
-        self._retreat = (direction, point[:2].copy(), self.now + self.attempt_s, why)
-
-    def _retreating(self, point: np.ndarray) -> bool:
-        """Steer the retreat; False once it is over."""
-        direction, origin, until, why = self._retreat
-        back = float(np.hypot(*(point[:2] - origin)))
-        level = self._tilt_cos() >= self._start_tilt_cos and self._clearance()[0] >= 2 * self.table_clearance_m
-        if (level and back >= self.retreat_m) or self.now > until:
-            self._retreat = None
-            return False
-        self._guide(direction)
-        self._state = f"backing off ({why})"
-        return True
-
-    def _alarm_begins(self, alarm: str, on: bool) -> bool:
-        """Whether ``alarm`` (on or off this tick) has just come on: True on its first tick
-        only, so that an alarm lasting many ticks ends one attempt."""
-        if not on:
-            self._alarms_on.discard(alarm)
-            return False
-        if alarm in self._alarms_on:
-            return False
-        self._alarms_on.add(alarm)
-        return True
-
-    def _table_alarm(self, point: np.ndarray) -> bool:
-        """React to a new alarm of the table-clearance guard (the pad's lowest corner, world, at
-        ``alarm_key``): end the attempt, block the frontier towards the corner as the table's
-        and back off away from it. True when it has just started backing off."""
-        corner = read_or(self.alarm_key)
-        if not self._alarm_begins("table", corner is not None):
-            return False
-        low = np.asarray(corner, dtype=float)[:2] - self.pose[:2, 3]
-        low = low / max(float(np.linalg.norm(low)), 1e-9)
-        why = "the table-clearance guard tripped"
-        if self.map is not None:
-            self._block(point, why, cause="table", direction=low)
-        self._start_retreat(point, why, -low)
-        return True
-
-    def _supervisor_alarm(self, point: np.ndarray) -> bool:
-        """React to an intervention of the supervisor (a force or pressure limit passed,
-        :data:`~tactile_bt.tree.behaviours.supervision.RETREATING`): end the attempt, block the
-        frontier it was heading for ("pressure", which explains nothing) and back off, rather
-        than press on where the supervisor has just pulled the pad back (a pad rocking between
-        the rims of a groove, its servo pressing it back onto one between the supervisor's
-        retreats, until the grace time was over). Once per intervention. True when it has just
-        started backing off."""
-        if not self._alarm_begins("supervisor", bool(read_or(RETREATING, False))):
-            return False
-        why = f"the supervisor pulled back ({read_or(REASON, '')})"
-        if self.map is not None and self.target is not None:
-            self._block(point, why, cause="pressure")
-        self._start_retreat(point, why)
-        return True
 
     # -- the life cycle ----------------------------------------------------------------------
     def initialise(self) -> None:
