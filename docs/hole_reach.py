@@ -37,7 +37,7 @@ def pad_points(size_m: tuple[float, float], tilt: float, yaw: float, step_m: flo
     return u.reshape(-1, 1) * e1 + v.reshape(-1, 1) * e2
 
 
-def lowest_corner(obj, table_z: float, xy: np.ndarray, size_m, max_tilt: float, clearance_m: float = 5e-4,
+def lowest_reach(obj, table_z: float, xy: np.ndarray, size_m, max_tilt: float, clearance_m: float = 5e-4,
                   dz_m: float = 0.001) -> tuple[float, float, float]:
     """Lowest height (m, above the table) at which the pad's corner can be at ``xy`` with every
     point of the pad ``clearance_m`` outside ``obj``, and the tilt and yaw (rad) it takes there."""
@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> None:
     print("| corner from the axis | lowest above the table | tilt | from the rim | mean slope from the rim |")
     print("|---|---|---|---|---|")
     for x in np.arange(0.0, R - r, 0.01):
-        z, tilt, _ = lowest_corner(ring, table_z, centre[:2] + np.array([-x, 0.0]), size, math.radians(args.max_tilt))
+        z, tilt, _ = lowest_reach(ring, table_z, centre[:2] + np.array([-x, 0.0]), size, math.radians(args.max_tilt))
         run = rim_r - x
         slope = math.degrees(math.atan2(rim_z - table_z - z, run))
         print(f"| {x * 1e3:.0f} mm | {z * 1e3:.0f} mm | {math.degrees(tilt):.0f}° | {run * 1e3:.0f} mm | {slope:.0f}° |")

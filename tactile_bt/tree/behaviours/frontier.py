@@ -62,7 +62,6 @@ from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.frontier_ends import FrontierEnds
 from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, FrontierLeft
 from tactile_bt.tree.behaviours.scan import tangent_guidance
-from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.blackboard import joints_held, write
@@ -141,10 +140,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         self._writer.register_key(key=self.attempt_key, access=Access.WRITE)
         self._setup = self.attach_blackboard_client(name=f"{self.name}/setup")
         self._setup.register_key(key=self.table_key, access=Access.READ)
-        self.alarm_key = normalise_key(self.alarm_key)
-        self._setup.register_key(key=self.alarm_key, access=Access.READ)
-        for key in (RETREATING, REASON):
-            self._setup.register_key(key=key, access=Access.READ)
+        self._listen_for_alarms(self._setup)
         self._setup.register_key(key=self.end_key, access=Access.READ)
         if self.reapproach_key:
             self.reapproach_key = normalise_key(self.reapproach_key)
@@ -175,7 +171,6 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         self.face_z = np.zeros(0)
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
-        self._alarms_on: set[str] = set()  # the alarms answered already ("table", "supervisor")
         self._state = "waiting for contact"
         self._reset_motion()
 

@@ -17,12 +17,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from py_trees.common import Access
 
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, lowest_corner
 from tactile_bt.tree.blackboard import read_or
 from tactile_bt.tree.declaration import Parameter
-from tactile_bt.tree.parameters import NON_NEGATIVE
+from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
 
 __all__ = ["FrontierEnds"]
 
@@ -144,6 +145,15 @@ class FrontierEnds:
         self._guide(direction)
         self._state = f"backing off ({why})"
         return True
+
+    def _listen_for_alarms(self, client) -> None:
+        """Register the keys of the alarms that end an attempt for reading on the blackboard
+        ``client`` (the table guard's ``alarm_key``, the supervisor's retreat and its reason),
+        none answered yet."""
+        self.alarm_key = normalise_key(self.alarm_key)
+        for key in (self.alarm_key, RETREATING, REASON):
+            client.register_key(key=key, access=Access.READ)
+        self._alarms_on: set[str] = set()  # the alarms answered already ("table", "supervisor")
 
     def _alarm_begins(self, alarm: str, on: bool) -> bool:
         """Whether ``alarm`` (on or off this tick) has just come on: True on its first tick
