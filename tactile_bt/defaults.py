@@ -120,7 +120,7 @@ ARM_DAMPING_NMS_PER_RAD: float = 0.2
 
 #: A point of a scanned surface counts as covered within this distance (m) of a contact: in the
 #: scan figures (tactile_bt.mission.accuracy) and in the frontier planner's estimate of the band
-#: the table leaves (tactile_bt.contacts.frontier_map.FrontierMap.untouched_below).
+#: the table leaves (tactile_bt.contacts.untouched.untouched_below).
 COVERAGE_RADIUS_M: float = 0.002
 
 # --- Metrics (the columns of the paper's Tables I-III) -----------------------------------------

@@ -19,7 +19,6 @@ import math
 
 import numpy as np
 from scipy import ndimage
-from scipy.spatial import cKDTree
 
 __all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "EXPLAINING", "sector", "describe_left"]
 
@@ -41,11 +40,6 @@ EXPLAINING = frozenset({"table", "tilt", "reach", "valley"})
 #: of a *valley*: an untouched hole in the touched area, enclosed by it and narrower than the pad
 #: (:meth:`FrontierMap.valleys`), which a flat pad bridges.
 VALLEY = "valley"
-#: :meth:`FrontierMap.face_going_on` compares a frontier cell's mean normal with that of the cell
-#: this far inwards (m), and takes the surface for a plane face when they differ by at most
-#: ``FACE_TURN_RAD``: a radius of curvature above about 115 mm, more than the pad's 80 mm.
-FACE_INWARD_M = 0.010
-FACE_TURN_RAD = math.radians(5.0)
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
@@ -347,65 +341,6 @@ class FrontierMap:
         with np.errstate(invalid="ignore", divide="ignore"):
             out[inside] = s / np.linalg.norm(s, axis=-1, keepdims=True)
         return out
-
-    def face_going_on(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, steep_rad: float,
-                      table_z_m: float, reach_m: float = math.inf, inward_m: float = FACE_INWARD_M,
-                      max_turn_rad: float = FACE_TURN_RAD) -> np.ndarray:
-        """Which frontier cells ``(rows, cols)`` (outward directions ``out``, ``(k, 2)``) lie on
-        a plane face that goes on down to the table at ``table_z_m`` within the pad's reach: the
-        mean normal of the cell and that of the cell ``inward_m`` inwards (against ``out``)
-        differ by at most ``max_turn_rad``, the face is tilted less than ``steep_rad``, and a pad
-        lying on it with its contact at the cell has a corner at most ``reach_m`` away down at
-        the table (the cell at most ``reach_m · sin(tilt)`` above it). Only there can the table
-        have stopped a pad lying on the surface and left a part of it untouched. Where the
-        surface turns (a rounded side steepening towards the table, an edge the pad rolled over,
-        a level top far above the table) what lies beyond is steeper than what was touched."""
-        if not len(rows) or not math.isfinite(table_z_m):
-            return np.zeros(len(rows), dtype=bool)
-        n = self.mean_normal(rows, cols)
-        inner = self.cell_of(self.centre_of(rows, cols) - np.asarray(out, dtype=float) * inward_m)
-        n_in = self.mean_normal(inner[:, 0], inner[:, 1])
-        with np.errstate(invalid="ignore"):
-            flat = np.sum(n * n_in, axis=1) >= math.cos(max_turn_rad)  # NaN (untouched) is not
-            sin_tilt = np.sqrt(np.maximum(1.0 - n[:, 2] ** 2, 0.0))
-            reached = self.z_max[rows, cols] - table_z_m <= reach_m * sin_tilt
-            return flat & (n[:, 2] > math.cos(steep_rad)) & reached
-
-    def untouched_below(self, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, table_z_m: float,
-                        steep_rad: float, samples: np.ndarray, radius_m: float, reach_m: float = math.inf,
-                        face: np.ndarray | None = None) -> float:
-        """Estimated area (m², in the table plane) of the surface left between the frontier
-        cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
-        a plane face goes on down to it (:meth:`face_going_on`, or ``face``, its result for these
-        cells when the caller has it already): the face is walked outwards of each such cell from
-        its highest sample down to the table at the face's tilt, in steps of a quarter of
-        ``radius_m``, and a step counts as left where no contact sample (``samples``, ``(k, 3)``,
-        world, m) lies within ``radius_m`` of it (the scan figures' coverage radius); each step
-        stands for a strip a cell wide, and a step another cell's walk has counted already is
-        not counted again."""
-        if face is None:
-            face = self.face_going_on(rows, cols, out, steep_rad, table_z_m, reach_m)
-        if not np.any(face):
-            return 0.0
-        rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]
-        tilt = np.maximum(self.tilt(rows, cols), math.radians(1.0))
-        top = self.z_max[rows, cols]
-        run = np.maximum(top - table_z_m, 0.0) / np.tan(tilt)
-        step = radius_m / 4
-        steps = np.arange(0.0, float(run.max()) + step, step)
-        walk = steps[None, :] <= run[:, None]
-        xy = self.centre_of(rows, cols)[:, None, :] + out[:, None, :] * steps[None, :, None]
-        z = top[:, None] - steps[None, :] * np.tan(tilt)[:, None]
-        points = np.concatenate((xy, z[..., None]), axis=-1)[walk]
-        samples = np.asarray(samples, dtype=float).reshape(-1, 3)
-        near = samples[(samples[:, 2] <= top.max() + radius_m)
-                       & np.all(samples[:, :2] >= points[:, :2].min(axis=0) - radius_m, axis=1)
-                       & np.all(samples[:, :2] <= points[:, :2].max(axis=0) + radius_m, axis=1)]
-        if len(near):
-            distance, _ = cKDTree(near).query(points, distance_upper_bound=1.01 * radius_m)
-            points = points[distance > radius_m]
-        keys = np.unique(np.floor(points[:, :2] / step).astype(np.int64), axis=0)
-        return float(len(keys)) * step * self.cell_m
 
     def mark_bridged(self, a: np.ndarray, b: np.ndarray, half_width_m: float, end_m: float = 0.005) -> int:
         """Mark the cells between two contacts a flat pad rested on at once (world points ``a``

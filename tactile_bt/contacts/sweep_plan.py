@@ -3,7 +3,7 @@ and the sides of a valley narrower than the pad.
 
 A pad lying flat on a face that goes on down to the table stops with its lowest border a few
 millimetres above the table, and the band below stays untouched (the frontier planner estimates
-it, :meth:`~tactile_bt.contacts.frontier_map.FrontierMap.untouched_below`). A level pad held just
+it, :func:`~tactile_bt.contacts.untouched.untouched_below`). A level pad held just
 above the table reaches it: slid towards the face, its border touches the face at the pad's own
 height, all four corners equally high. :func:`foot_runs` turns the frontier cells on such faces
 (their centres, heights and mean normals, from the planner) into straight runs of the face's

@@ -7,6 +7,7 @@ import numpy as np
 import numpy.testing as npt
 
 from tactile_bt.contacts.frontier_map import GAP, OPEN, FrontierMap
+from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from scan_helpers import disc
 
 
@@ -100,14 +101,14 @@ def _left_near_table(points, normals):
 
 
 def _below(m, rows, cols, out, steep_deg=65, **kwargs):
-    return m.untouched_below(rows, cols, out, 0.0, math.radians(steep_deg), m.samples, 0.002, **kwargs)
+    return untouched_below(m, rows, cols, out, 0.0, math.radians(steep_deg), m.samples, 0.002, **kwargs)
 
 
 def test_a_plane_face_going_on_to_the_table_leaves_the_run_down_to_it_untouched():
     # a 30° face from x = 0 (z = 10 mm) up: it goes on down to the table at z = 0, 17 mm further out
     slope = math.radians(30)
     m, rows, cols, out = _left_near_table(*_side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope))))
-    assert np.all(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
+    assert np.all(face_going_on(m, rows, cols, out, math.radians(65), 0.0))
     area = _below(m, rows, cols, out)
     # less the first 2 mm of the face below the frontier's samples, which they cover
     npt.assert_allclose(area, 0.04 * (0.01 / math.tan(slope) - 0.002 * math.cos(slope)), rtol=0.25)
@@ -148,8 +149,48 @@ def test_a_side_rounding_off_towards_the_table_leaves_nothing_counted_below_it()
         return r * np.cos(tilt) - 0.01, tilt
 
     m, rows, cols, out = _left_near_table(*_side(rounded))
-    assert not np.any(m.face_going_on(rows, cols, out, math.radians(65), 0.0))
+    assert not np.any(face_going_on(m, rows, cols, out, math.radians(65), 0.0))
     assert _below(m, rows, cols, out) == 0.0
+
+
+def _beyond(m, rows, cols, out):
+    return untouched_beyond(m, rows, cols, out, math.radians(65), m.samples, 0.002, table_z_m=0.0)
+
+
+def test_a_face_beyond_the_arms_reach_counts_the_10_mm_its_shape_was_measured_over_untouched():
+    # a level top 40 mm above the table that the arm stopped the pad on at x = 0: it goes on
+    m, rows, cols, out = _left_near_table(*_side(lambda x: (np.full_like(x, 0.04), np.zeros_like(x))))
+    area = _beyond(m, rows, cols, out)
+    npt.assert_allclose(area, 0.04 * (0.010 - 0.002), rtol=0.2)  # less the 2 mm its samples cover
+    # contacts found beyond it later (another way round) cover what they touch
+    y = np.linspace(-0.02, 0.02, 41)
+    strip = np.column_stack((np.full_like(y, -0.007), y, np.full_like(y, 0.04)))
+    m.samples = np.vstack((m.samples, strip))
+    npt.assert_allclose(_beyond(m, rows, cols, out), area - 0.04 * 0.004, rtol=0.25)
+
+
+def test_a_side_steepening_beyond_the_arms_reach_counts_only_up_to_the_tilt_limit():
+    # a circle of 46 mm radius: 60° at the frontier, 5° short of the limit, turning 19° over the
+    # last 10 mm: what lies beyond within the limit is 2.6 mm (walked from the frontier cells'
+    # highest samples, their centres 1 mm further out)
+    r = 0.04 / math.sin(math.radians(60))
+
+    def rounded(x):
+        tilt = np.arcsin((0.04 - x) / r)
+        return r * np.cos(tilt) + 0.02, tilt
+
+    m, rows, cols, out = _left_near_table(*_side(rounded))
+    assert _beyond(m, rows, cols, out) < 0.04 * 0.003
+    # a gentler curve (60 mm radius, 11.5° at the frontier, far from the limit): extrapolated only
+    # as far as its turning was measured
+    big = 0.06
+
+    def gentle(x):
+        tilt = np.arcsin((0.012 - x) / big)
+        return big * np.cos(tilt) - 0.02, tilt
+
+    m, rows, cols, out = _left_near_table(*_side(gentle))
+    npt.assert_allclose(_beyond(m, rows, cols, out), 0.04 * (0.010 - 0.002), rtol=0.3)
 
 
 def test_a_stall_at_the_rim_of_a_hollow_narrower_than_the_pad_is_a_valley_but_not_at_the_outer_rim():

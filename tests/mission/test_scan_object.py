@@ -413,6 +413,30 @@ def test_planner_succeeds_when_no_frontier_is_within_the_tilt_limit():
     assert_allclose(guidance(), 0.0)
 
 
+def _closed_all_round(patch, cause, **kw):
+    """A planner on a touched ``patch`` (30 mm above the table) whose whole rim is closed for
+    ``cause``, after one replan; the status of the next."""
+    leaf, h = planner_harness(patch, (0.0, 0.0), height=0.03, table=0.0, min_coverage=0.95, **kw)
+    h.tick(make_features())
+    leaf.map.close((0.0, 0.0), 0.05, cause)
+    leaf.target, leaf._next_plan = None, -math.inf
+    return leaf, h.tick(make_features())
+
+
+def test_a_scan_stopped_all_round_by_the_arm_s_reach_fails_naming_the_surface_beyond_it():
+    # a level disc of 20 mm the arm could go no further on: the surface beyond it goes on, so
+    # the scan has not covered 0.95 of it, whatever explains why the pad stopped
+    leaf, status = _closed_all_round(disc(0.02, z=0.03), "reach")
+    assert status == Status.FAILURE
+    assert "of frontier the arm could not reach" in leaf.feedback_message
+    left = py_trees.blackboard.Blackboard.storage["/scan/frontier_left"]
+    assert left["untouched_beyond_reach_m2"] > 0.1 * leaf.map.touched_area()
+    assert left["estimated_coverage"] < 0.95
+    # the same disc with its rim too steep to go on: nothing the scan is for lies beyond
+    leaf, status = _closed_all_round(disc(0.02, z=0.03), "tilt")
+    assert status == Status.SUCCESS
+
+
 def test_planner_does_not_start_before_anything_is_touched_and_waits_without_contact():
     leaf, h = planner_harness((np.zeros((0, 3)), np.zeros((0, 3))), (0.0, 0.0))
     for _ in range(20):

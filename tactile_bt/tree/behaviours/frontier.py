@@ -230,7 +230,10 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
     def _guide(self, world: np.ndarray | None) -> None:
         """Write the guidance along the world direction ``world`` (zero when None), slower as
         the contact nears the pad's border: sliding drags the contact towards the trailing
-        side, and off the pad when it sits near the border already (see ``table_offset``)."""
+        side, and off the pad when it sits near the border already (see ``table_offset``). The
+        contact is the centre of the whole load (``load_cop_xy``): a flat pad bridging a groove
+        or a ring's hole rests on two contacts at opposite borders, neither of which it loses by
+        sliding, and slowed by either it would crawl."""
         norm = 0.0 if world is None else float(np.linalg.norm(world))
         if norm < 1e-12:
             write(self.key, _ZERO_TWIST)
@@ -363,11 +366,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                     counts = f"{self.attempts} targets, {self.blocks} ends of the surface{explained}"
                     left = describe_left(self.frontier_left())
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
-                        where = [f"{self.below_m2 * 1e4:.1f} cm² near the table below {self.face_left()}"] \
-                            if self.below_m2 > 0 else []
-                        if self.valley_m2 > 0:
-                            where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
-                        untouched = f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
+                        untouched = self.untouched_where()
                         if self._asked_sweep(point, f"{untouched}) ({counts})"):
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"

@@ -29,6 +29,7 @@ from py_trees.common import Status
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
+from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between
@@ -47,6 +48,12 @@ class FrontierLeft:
     contact cloud ``_cloud`` and its table and tilt settings)."""
 
     valley_m2 = 0.0
+    #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains,
+    #: and that frontier's length (m).
+    beyond_reach_m2 = 0.0
+    reach_m = 0.0
+    #: The estimated coverage leaving the valleys out (see ``min_coverage``).
+    coverage_but_valleys = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
     sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
@@ -63,7 +70,9 @@ class FrontierLeft:
                                  "slope (0 = no such test). A rounded side steepening towards the table, or an edge "
                                  "the pad rolled over, adds nothing: what lies below is steeper than anything "
                                  "touched. The valleys that explain frontier (holes in the touched area narrower than "
-                                 "the pad) add their area.")
+                                 "the pad) add their area, and so does the surface taken to go on beyond the "
+                                 "frontier the arm's reach explains (10 mm of it, less where it steepens past the "
+                                 "tilt limit sooner).")
     reapproach_key = Parameter("", fixed=True,
                                doc="Blackboard key of re-approaches (``reapproach`` reads it; empty: none). When no "
                                    "reachable frontier is left but some is unexplained, the leaf writes a re-approach "
@@ -100,9 +109,9 @@ class FrontierLeft:
         band = reason == "table"
         reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
-        face = self.map.face_going_on(rows[band], cols[band], out[band], steep, self.table_z_m, reach)
-        below = self.map.untouched_below(rows[band], cols[band], out[band], self.table_z_m, steep,
-                                         self._cloud.points, defaults.COVERAGE_RADIUS_M, reach, face)
+        face = face_going_on(self.map, rows[band], cols[band], out[band], steep, self.table_z_m, reach)
+        below = untouched_below(self.map, rows[band], cols[band], out[band], self.table_z_m, steep,
+                                self._cloud.points, defaults.COVERAGE_RADIUS_M, reach, face)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
         self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
         self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
@@ -110,10 +119,18 @@ class FrontierLeft:
         # may be partly the table seen through a ring: the estimate errs towards failing)
         valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
             if np.any(reason == VALLEY) else 0.0
+        # the arm stopped the pad there, not the surface: it goes on (see untouched_beyond)
+        far = reason == "reach"
+        self.reach_m = float(np.count_nonzero(far)) * self.cell_m
+        beyond = untouched_beyond(self.map, rows[far], cols[far], out[far], steep, self._cloud.points,
+                                  defaults.COVERAGE_RADIUS_M, self.table_z_m) \
+            if np.any(far) else 0.0
         touched = self.map.touched_area()
-        self.coverage = touched / (touched + below + valley) if touched > 0 else 0.0
+        self.coverage = touched / (touched + below + valley + beyond) if touched > 0 else 0.0
+        self.coverage_but_valleys = touched / (touched + below + beyond) if touched > 0 else 0.0
         self.below_m2 = below
         self.valley_m2 = valley
+        self.beyond_reach_m2 = beyond
         write(FRONTIER_LEFT_KEY, self.frontier_left())
         ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
@@ -122,12 +139,15 @@ class FrontierLeft:
         """The frontier left at the last choice, ``{"explained": {reason: m}, "unexplained":
         {reason: m}}`` (lengths in cell edges; the reason "" is frontier still open), the
         estimated untouched area between the table and the frontier the table explains on plane
-        faces (``untouched_near_table_m2``, m² in the table plane; see ``min_coverage``), the
-        estimated coverage (the touched area over it and that, ``estimated_coverage``) and where
-        that frontier lies (``near_table``, :meth:`face_left`)."""
+        faces (``untouched_near_table_m2``, m² in the table plane; see ``min_coverage``), in the
+        valleys (``untouched_in_valleys_m2``) and beyond the frontier the arm's reach explains
+        (``untouched_beyond_reach_m2``), the estimated coverage (the touched area over it and
+        those, ``estimated_coverage``) and where that frontier lies (``near_table``,
+        :meth:`face_left`)."""
         return {"explained": {k: v for k, v in self.left.items() if k in EXPLAINING},
                 "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING},
                 "untouched_near_table_m2": self.below_m2, "untouched_in_valleys_m2": self.valley_m2,
+                "untouched_beyond_reach_m2": self.beyond_reach_m2,
                 "estimated_coverage": self.coverage,
                 "near_table": self.face_left()}
 
@@ -140,6 +160,17 @@ class FrontierLeft:
         z = (self.face_z - self.table_z_m) * 1e3
         return (f"{len(self.face_xy) * self.cell_m * 1e3:.0f} mm of frontier on plane faces {z.min():.0f}–{z.max():.0f} mm "
                 f"above the table, x {lo[0]:.0f}…{hi[0]:.0f}, y {lo[1]:.0f}…{hi[1]:.0f} mm")
+
+    def untouched_where(self) -> str:
+        """Where the estimated coverage leaves surface untouched, for a failure's message: about
+        how much of it in all, near the table, in valleys and beyond the arm's reach."""
+        where = [f"{self.below_m2 * 1e4:.1f} cm² near the table below {self.face_left()}"] if self.below_m2 > 0 else []
+        if self.valley_m2 > 0:
+            where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
+        if self.beyond_reach_m2 > 0:
+            where.append(f"{self.beyond_reach_m2 * 1e4:.1f} cm² beyond {self.reach_m * 1e3:.0f} mm of frontier "
+                         "the arm could not reach")
+        return f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
 
     def unexplained_m(self) -> float:
         """Length (m) of the frontier left without an explaining reason."""
