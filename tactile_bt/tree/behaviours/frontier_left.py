@@ -52,8 +52,6 @@ class FrontierLeft:
     #: and that frontier's length (m).
     beyond_reach_m2 = 0.0
     reach_m = 0.0
-    #: The estimated coverage leaving the valleys out (see ``min_coverage``).
-    coverage_but_valleys = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
     sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
@@ -127,7 +125,6 @@ class FrontierLeft:
             if np.any(far) else 0.0
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below + valley + beyond) if touched > 0 else 0.0
-        self.coverage_but_valleys = touched / (touched + below + beyond) if touched > 0 else 0.0
         self.below_m2 = below
         self.valley_m2 = valley
         self.beyond_reach_m2 = beyond
