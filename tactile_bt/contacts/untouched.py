@@ -48,9 +48,7 @@ def face_going_on(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.nd
     a level top far above the table) what lies beyond is steeper than what was touched."""
     if not len(rows) or not math.isfinite(table_z_m):
         return np.zeros(len(rows), dtype=bool)
-    n = m.mean_normal(rows, cols)
-    inner = m.cell_of(m.centre_of(rows, cols) - np.asarray(out, dtype=float) * inward_m)
-    n_in = m.mean_normal(inner[:, 0], inner[:, 1])
+    n, n_in = _normals_and_inwards(m, rows, cols, np.asarray(out, dtype=float), inward_m)
     with np.errstate(invalid="ignore"):
         flat = np.sum(n * n_in, axis=1) >= math.cos(max_turn_rad)  # NaN (untouched) is not
         sin_tilt = np.sqrt(np.maximum(1.0 - n[:, 2] ** 2, 0.0))
@@ -97,9 +95,7 @@ def untouched_beyond(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np
     if not len(rows):
         return 0.0
     out = np.asarray(out, dtype=float)
-    n = m.mean_normal(rows, cols)
-    inner = m.cell_of(m.centre_of(rows, cols) - out * inward_m)
-    n_in = m.mean_normal(inner[:, 0], inner[:, 1])
+    n, n_in = _normals_and_inwards(m, rows, cols, out, inward_m)
 
     def slope(normal: np.ndarray) -> np.ndarray:  # tilt descending along out (rad, negative: rising)
         return np.arctan2(np.sum(normal[:, :2] * out, axis=1), normal[:, 2])
@@ -114,6 +110,14 @@ def untouched_beyond(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np
     run[steepening] = np.minimum(inward_m, np.maximum(steep_rad - tilt[steepening], 0.0) / curvature[steepening])
     run[tilt >= steep_rad] = 0.0
     return _walked_untouched(m, rows, cols, out, run, tilt, curvature, samples, radius_m, table_z_m)
+
+
+def _normals_and_inwards(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray,
+                         inward_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """The mean normals of the frontier cells ``(rows, cols)`` and of the cells ``inward_m``
+    inwards of them (against ``out``), ``(k, 3)`` each; NaN where untouched."""
+    inner = m.cell_of(m.centre_of(rows, cols) - out * inward_m)
+    return m.mean_normal(rows, cols), m.mean_normal(inner[:, 0], inner[:, 1])
 
 
 def _walked_untouched(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, run: np.ndarray,
@@ -139,7 +143,7 @@ def _walked_untouched(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: n
     if not len(points):
         return 0.0
     samples = np.asarray(samples, dtype=float).reshape(-1, 3)
-    near = samples[(samples[:, 2] <= top.max() + radius_m + float(np.max(run)))
+    near = samples[(samples[:, 2] <= points[:, 2].max() + radius_m)
                    & np.all(samples[:, :2] >= points[:, :2].min(axis=0) - radius_m, axis=1)
                    & np.all(samples[:, :2] <= points[:, :2].max(axis=0) + radius_m, axis=1)]
     if len(near):

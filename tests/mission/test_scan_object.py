@@ -413,10 +413,10 @@ def test_planner_succeeds_when_no_frontier_is_within_the_tilt_limit():
     assert_allclose(guidance(), 0.0)
 
 
-def _closed_all_round(patch, cause, **kw):
+def _closed_all_round(patch, cause):
     """A planner on a touched ``patch`` (30 mm above the table) whose whole rim is closed for
     ``cause``, after one replan; the status of the next."""
-    leaf, h = planner_harness(patch, (0.0, 0.0), height=0.03, table=0.0, min_coverage=0.95, **kw)
+    leaf, h = planner_harness(patch, (0.0, 0.0), height=0.03, table=0.0, min_coverage=0.95)
     h.tick(make_features())
     leaf.map.close((0.0, 0.0), 0.05, cause)
     leaf.target, leaf._next_plan = None, -math.inf

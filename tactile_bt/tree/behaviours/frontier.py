@@ -230,10 +230,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
     def _guide(self, world: np.ndarray | None) -> None:
         """Write the guidance along the world direction ``world`` (zero when None), slower as
         the contact nears the pad's border: sliding drags the contact towards the trailing
-        side, and off the pad when it sits near the border already (see ``table_offset``). The
-        contact is the centre of the whole load (``load_cop_xy``): a flat pad bridging a groove
-        or a ring's hole rests on two contacts at opposite borders, neither of which it loses by
-        sliding, and slowed by either it would crawl."""
+        side, and off the pad when it sits near the border already (see ``table_offset``)."""
         norm = 0.0 if world is None else float(np.linalg.norm(world))
         if norm < 1e-12:
             write(self.key, _ZERO_TWIST)

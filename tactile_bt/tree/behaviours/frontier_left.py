@@ -48,10 +48,8 @@ class FrontierLeft:
     contact cloud ``_cloud`` and its table and tilt settings)."""
 
     valley_m2 = 0.0
-    #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains,
-    #: and that frontier's length (m).
+    #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
     beyond_reach_m2 = 0.0
-    reach_m = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
     sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
@@ -119,10 +117,8 @@ class FrontierLeft:
             if np.any(reason == VALLEY) else 0.0
         # the arm stopped the pad there, not the surface: it goes on (see untouched_beyond)
         far = reason == "reach"
-        self.reach_m = float(np.count_nonzero(far)) * self.cell_m
         beyond = untouched_beyond(self.map, rows[far], cols[far], out[far], steep, self._cloud.points,
-                                  defaults.COVERAGE_RADIUS_M, self.table_z_m) \
-            if np.any(far) else 0.0
+                                  defaults.COVERAGE_RADIUS_M, self.table_z_m)
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below + valley + beyond) if touched > 0 else 0.0
         self.below_m2 = below
@@ -165,7 +161,7 @@ class FrontierLeft:
         if self.valley_m2 > 0:
             where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
         if self.beyond_reach_m2 > 0:
-            where.append(f"{self.beyond_reach_m2 * 1e4:.1f} cm² beyond {self.reach_m * 1e3:.0f} mm of frontier "
+            where.append(f"{self.beyond_reach_m2 * 1e4:.1f} cm² beyond {self.left.get('reach', 0.0) * 1e3:.0f} mm of frontier "
                          "the arm could not reach")
         return f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
 
