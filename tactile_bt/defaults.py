@@ -157,9 +157,9 @@ SUPERVISOR_GRACE_S: float = 0.5
 SUPERVISOR_CLEAR_S: float = 0.2
 #: Longest grace and clear time a scene or run may declare (s).
 SUPERVISOR_MAX_WAIT_S: float = 2.0
-#: A second contact region seen this recently (s) still keeps the retreat along the normal alone:
-#: a flat pad rocking between the rims of a groove bears them one at a time, and sliding away from
-#: the one under its border presses the other.
+#: A second contact region seen this recently (s) still keeps the retreat from sliding towards
+#: it: a flat pad rocking between the rims of a groove bears them one at a time, and sliding away
+#: from the one under its border presses the other.
 SUPERVISOR_BRIDGE_MEMORY_S: float = 0.2
 #: Speed of the retreat along the pad normal, away from the object (m/s): as fast as the force
 #: hold backs off. On the compliant arm the pad gives back only as its joints unwind, so a

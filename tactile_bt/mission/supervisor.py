@@ -10,8 +10,9 @@ the mount does, and enforces what no tree may switch off:
 - **force and pressure limits**: while the smoothed pressure or force is above its limit, the
   twist is replaced by a retreat along the pad normal (``-z`` of the sensor frame, whose ``z``
   points towards the object; at ``retreat_speed_mps``, or as fast as the tree itself backs off
-  when that is faster), with a slide in the pad's plane away from a single contact off its
-  centre (up to that speed at the border: an object beside the border is left sideways too), and the
+  when that is faster), with a slide in the pad's plane away from the contact off its
+  centre (up to that speed at the border: an object beside the border is left sideways too; never
+  towards another contact region seen within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S``), and the
   tree is told through the blackboard
   (:mod:`tactile_bt.tree.behaviours.supervision`); if a limit is still exceeded ``grace_s`` after
   the intervention began, the mission ends with ``failure`` naming the limit. An intervention is
@@ -217,6 +218,7 @@ class Supervisor:
         self._t_prev = 0.0
         self._retreated: Intervention | None = None  # the intervention of last cycle's retreat
         self._two_regions_at = -math.inf  # when the pad last bore more than one contact region
+        self._other_xy = (math.nan, math.nan)  # where the other regions' centre was then (m, sensor frame)
         self.peaks = _Peaks()
         self.last_command = np.zeros(6)
         publish(False, "")
@@ -250,7 +252,8 @@ class Supervisor:
             ``twist_s`` unchanged within every limit; the retreat ``[-v x/h, -v y/h, -v, 0, 0, 0]``
             while a force or pressure limit is exceeded (``v`` the retreat speed, the normal part
             the tree's own ``-vz`` when larger; ``(x, y)`` the centre of pressure and ``h`` half the
-            pad's width, m); zero once the supervisor has ended the mission.
+            pad's width, m; the slide less its part towards another region, see
+            :meth:`_slide_away`); zero once the supervisor has ended the mission.
         """
         if self._retreated is not None:  # the retreat sent last cycle lasted until now
             self._retreated.retreat_s += t - self._t_prev
@@ -265,6 +268,7 @@ class Supervisor:
         pressure, force = features.pressure, features.force
         if features.in_contact and features.others_tactels > 0:
             self._two_regions_at = t
+            self._other_xy = features.pad.xy_px_to_m(*features.others_cop_px)
         peaks = self.peaks
         if pressure > peaks.pressure_pa:
             peaks.pressure_pa = pressure
@@ -318,14 +322,16 @@ class Supervisor:
     def _exceeded(self, limit: str, value: float, t: float, tree_vz: float = 0.0, features=None) -> np.ndarray:
         """A limit exceeded: retreat, or end the mission once the grace time is over. A tree
         already backing off along the normal faster than the retreat keeps its speed (``tree_vz``,
-        m/s): the supervisor never slows a retreat down. A single contact off the pad's centre
-        (the ``features``' centre of pressure, no other region) adds a slide away from it, in the
-        pad's plane, as much faster as the contact is nearer the border: an object pressing on
-        the pad's border may lie beside it, where backing off along the normal alone drags the
-        border along it. With contacts on both sides (a pad bridging a groove) sliding away from
-        one presses the other: the retreat is along the normal alone, also when the other region
-        was seen only within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S`` (a pad rocking from rim to
-        rim bears one at a time)."""
+        m/s): the supervisor never slows a retreat down. A contact off the pad's centre
+        (the ``features``' centre of pressure) adds a slide away from it, in the pad's plane, as
+        much faster as the contact is nearer the border: an object pressing on the pad's border
+        may lie beside it, where backing off along the normal alone drags the border along it,
+        and a corner meeting a side steep to the pad is freed by the slide, hardly by the normal.
+        With another contact region under the pad (a pad bridging a groove or a ring's hole), or
+        seen there within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S`` (a pad rocking from rim to rim
+        bears one at a time), sliding towards it would press it: the slide keeps only its part
+        across the line to that region's centre (none for rims on opposite borders; none when
+        where it lies is unknown)."""
         unit = _UNITS[limit]
         bound = getattr(self.limits, f"{limit}_limit_{unit.lower()}")
         run = self._current
@@ -346,14 +352,32 @@ class Supervisor:
         retreat = self._retreat.copy()
         if tree_vz < retreat[2]:
             retreat[2] = tree_vz
-        if features is not None and features.in_contact and not features.others_tactels \
-                and t - self._two_regions_at > defaults.SUPERVISOR_BRIDGE_MEMORY_S:
-            x, y = features.cop_xy
-            half = 0.5 * min(features.pad.size_m)
-            if math.isfinite(x) and math.isfinite(y) and half > 0:
-                retreat[0] = -x / half * self.limits.retreat_speed_mps
-                retreat[1] = -y / half * self.limits.retreat_speed_mps
+        if features is not None and features.in_contact:
+            retreat[0], retreat[1] = self._slide_away(features, t)
         return retreat
+
+    def _slide_away(self, features, t: float) -> tuple[float, float]:
+        """The retreat's slide in the pad's plane (m/s, sensor frame): away from the contact's
+        centre of pressure, at the retreat speed times its distance from the centre over half the
+        pad's width, less its part towards another region seen within
+        ``defaults.SUPERVISOR_BRIDGE_MEMORY_S`` (zero when where that lies is unknown)."""
+        x, y = features.cop_xy
+        half = 0.5 * min(features.pad.size_m)
+        if not (math.isfinite(x) and math.isfinite(y) and half > 0):
+            return 0.0, 0.0
+        speed = self.limits.retreat_speed_mps
+        sx, sy = -x / half * speed, -y / half * speed
+        if t - self._two_regions_at > defaults.SUPERVISOR_BRIDGE_MEMORY_S:
+            return sx, sy
+        ux, uy = self._other_xy[0] - x, self._other_xy[1] - y
+        n = math.hypot(ux, uy)
+        if not n > 0:
+            return 0.0, 0.0
+        ux, uy = ux / n, uy / n
+        towards = sx * ux + sy * uy
+        if towards > 0:
+            sx, sy = sx - towards * ux, sy - towards * uy
+        return sx, sy
 
     def _end(self, why: str) -> None:
         self.outcome = ("failure", f"supervisor: {why}")

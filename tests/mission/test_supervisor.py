@@ -80,9 +80,28 @@ def test_a_contact_at_the_pad_s_border_is_left_sideways_as_well():
     # a centred contact: the normal alone, as before
     np.testing.assert_allclose(sup.check(press(4500.0), PAD_DOWN, TREE_TWIST, 1.004)[:3], [0.0, 0.0, -0.02], atol=1e-12)
     # a second region on the other side (a groove the pad bridges): sliding would press it, so
-    # the normal alone
-    bridged = dataclasses.replace(corner, others_force=0.5, others_tactels=3)
-    np.testing.assert_allclose(sup.check(bridged, PAD_DOWN, TREE_TWIST, 1.008)[:3], [0.0, 0.0, -0.02], atol=1e-12)
+    # the normal alone; where it lies unknown, likewise
+    across = dataclasses.replace(make_features(cop_px=(15.0, 7.5), pressure=4500.0, area=3), others_force=0.5,
+                                 others_tactels=3, others_cop_px=(0.0, 7.5))
+    np.testing.assert_allclose(sup.check(across, PAD_DOWN, TREE_TWIST, 1.008)[:3], [0.0, 0.0, -0.02], atol=1e-12)
+    unknown = dataclasses.replace(corner, others_force=0.5, others_tactels=3)
+    np.testing.assert_allclose(sup.check(unknown, PAD_DOWN, TREE_TWIST, 1.012)[:3], [0.0, 0.0, -0.02], atol=1e-12)
+
+
+def test_a_corner_hit_beside_a_bridged_hollow_is_left_across_the_line_to_the_other_contact():
+    # A pad bridging a ring's hole (a rim under its border row y = 0) slides on and its corner
+    # (+x, +y) meets the far side, steep to the pad: backing off along the normal frees it
+    # slowly. The slide away from the corner keeps only its part across the line to the rim
+    # seen just before (pressing that rim would follow otherwise): here along -x, not -y.
+    sup = Supervisor(SupervisorLimits(pressure_limit_pa=4000.0, retreat_speed_mps=0.02))
+    rim = dataclasses.replace(make_features(cop_px=(15.0, 15.0), pressure=1500.0, area=6),
+                              others_force=0.3, others_tactels=6, others_cop_px=(15.0, 0.0))
+    assert np.array_equal(sup.check(rim, PAD_DOWN, TREE_TWIST, 1.0), TREE_TWIST)
+    corner = make_features(cop_px=(15.0, 15.0), pressure=4500.0, area=6)
+    twist = sup.check(corner, PAD_DOWN, TREE_TWIST, 1.05)
+    x, _ = corner.cop_xy
+    assert twist[2] == pytest.approx(-0.02) and not twist[3:].any()
+    np.testing.assert_allclose(twist[:2], [-x / 0.04 * 0.02, 0.0], atol=1e-12)  # sensor y is the rim's direction
 
 
 def test_a_pad_rocking_between_two_rims_is_not_slid_into_the_other_one():
@@ -92,7 +111,7 @@ def test_a_pad_rocking_between_two_rims_is_not_slid_into_the_other_one():
     sup = Supervisor(SupervisorLimits(pressure_limit_pa=4000.0, retreat_speed_mps=0.02))
     near_rim = make_features(cop_px=(7.5, 0.0), pressure=4500.0, area=16)
     far_rim_too = dataclasses.replace(make_features(cop_px=(7.5, 0.0), pressure=1500.0, area=16),
-                                      others_force=0.4, others_tactels=16)
+                                      others_force=0.4, others_tactels=16, others_cop_px=(7.5, 15.0))
     assert np.array_equal(sup.check(far_rim_too, PAD_DOWN, TREE_TWIST, 1.0), TREE_TWIST)
     np.testing.assert_allclose(sup.check(near_rim, PAD_DOWN, TREE_TWIST, 1.1)[:3], [0.0, 0.0, -0.02], atol=1e-12)
     later = sup.check(near_rim, PAD_DOWN, TREE_TWIST, 1.5)
