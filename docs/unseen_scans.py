@@ -48,6 +48,9 @@ OBJECTS = {
     "torus_wide": ("torus 220 mm across, 60 mm tall, its hole 100 mm (wider than the pad), 1e5 N/m", 0.06, 60,
                    "  - {type: torus, major_radius: 0.08, minor_radius: 0.03, position: [0, 0, 0.03], "
                    "stiffness: 1.0e5, friction: 0.5}\n", -0.08),
+    "torus_narrow": ("torus 160 mm across, 60 mm tall, its hole 40 mm (half the pad), 1e5 N/m", 0.06, 60,
+                     "  - {type: torus, major_radius: 0.05, minor_radius: 0.03, position: [0, 0, 0.03], "
+                     "stiffness: 1.0e5, friction: 0.5}\n", -0.05),
     "lumpy_soft": ("lumpy mesh 108 × 72 × 29 mm, soft (2e4 N/m), turned −50°", "lumpy_soft", 60,
                    "  - {type: mesh, path: lumpy_soft.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
                    "rpy_deg: [0, 0, -50], stiffness: 2.0e4, friction: 0.5}\n", 0.0),
