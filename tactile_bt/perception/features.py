@@ -429,3 +429,25 @@ def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np
     if not total > 0.0:
         return features.cop_px
     return np.array((sx / total, sy / total))
+
+
+def line_spans_window(features: ContactFeatures, window_px: float = 3.0) -> bool:
+    """Whether an elongated contact reaches ``window_px`` (tactels) beyond where its axis
+    passes closest to the pad's centre, both ways along the axis: then
+    :func:`local_contact_point` weighs a whole window of it. Near the line's end (a cable's tip
+    under the pad) the window is cut short and its centroid slides onto the tip, up to the
+    cable's radius and the foam's spread beyond the end of its centreline. False without a
+    contact or an orientation; True without an image (the local point is then the COP, with no
+    window to cut short)."""
+    alpha = features.orientation
+    if not features.in_contact or alpha != alpha:
+        return False
+    if features.image is None:
+        return True
+    ux, uy = math.cos(alpha), math.sin(alpha)
+    cx, cy = features.cop_px.tolist()
+    px, py = features.pad.centre_px
+    centre_along = (px - cx) * ux + (py - cy) * uy
+    rows, cols = np.nonzero(features.mask)
+    along = (cols - cx) * ux + (rows - cy) * uy
+    return bool(len(along)) and along.min() <= centre_along - window_px and along.max() >= centre_along + window_px

@@ -24,7 +24,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import oracles
 from tactile_bt import defaults
-from tactile_bt.perception.features import MIN_ANISOTROPY, extract, local_contact_point, wrap_half_pi
+from tactile_bt.perception.features import MIN_ANISOTROPY, extract, line_spans_window, local_contact_point, wrap_half_pi
 from tactile_bt.sense.geometry import PadGeometry
 
 PAD = (defaults.ROWS, defaults.COLS)
@@ -144,6 +144,18 @@ def test_local_contact_point_matches_numpy(img, window_px):
     f = extract(img)
     assert_allclose(local_contact_point(f, window_px), oracles.local_contact_point(f, window_px),
                     rtol=RTOL, atol=1e-12)
+
+
+def test_a_line_ending_near_the_pad_centre_does_not_span_the_local_window():
+    # a cable across the whole pad, and one whose tip lies 1 tactel past the pad centre (the pad
+    # has slid onto the cable's end): there the windowed point slides towards the tip
+    from tactile_bt.perception.synthetic import line_contact
+
+    across = extract(line_contact((7.5, 7.5), math.pi / 2, 20.0, 1.5, 3.0))
+    assert line_spans_window(across)
+    tip = extract(line_contact((7.5, 13.5), math.pi / 2, 10.0, 1.5, 3.0))  # from y = 8.5 to 18.5 (off the pad)
+    assert np.isfinite(tip.orientation) and not line_spans_window(tip)
+    assert not line_spans_window(extract(np.zeros((16, 16))))
 
 
 def test_local_contact_point_of_a_bent_line():

@@ -618,6 +618,18 @@ def test_record_contacts_local_point_records_nothing_without_orientation():
     assert len(h.contacts) == 1
 
 
+def test_record_contacts_local_point_records_nothing_where_the_line_ends_near_the_centre():
+    """Past a cable's end the windowed local point slides onto the tip, beyond the end of the
+    centreline: such a cycle records nothing; a line across the pad records its point."""
+    from tactile_bt.perception.synthetic import line_contact
+
+    for centre, recorded in (((7.5, 7.5), 1), ((7.5, 13.5), 0)):
+        py_trees.blackboard.Blackboard.clear()
+        h = LeafHarness(RecordContacts(point="local", max_pressure_ratio=np.inf), dt=DT)
+        h.tick(frame=line_contact(centre, np.pi / 2, 10.0 if recorded == 0 else 20.0, 1.5, 3.0))
+        assert len(h.contacts) == recorded
+
+
 def test_record_contacts_only_when_a_blackboard_key_is_true():
     h = LeafHarness(RecordContacts(only_when="/cable/on_line"), dt=DT)
     h.tick(make_features())

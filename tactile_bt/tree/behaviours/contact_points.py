@@ -37,7 +37,7 @@ from tactile_bt.tree.behaviours.stiffness import FORCE_TARGET_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, between, normalise_key
-from tactile_bt.perception.features import local_contact_point
+from tactile_bt.perception.features import line_spans_window, local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["RecordContacts", "imprint_points", "other_contact"]
@@ -167,7 +167,8 @@ class RecordContacts(TactileBehaviour):
                       doc="``\"cop\"``: the centre of pressure (Eq. 1). ``\"local\"``: where an elongated contact "
                           "crosses the pad centre (:func:`~tactile_bt.perception.features.local_contact_point`), which "
                           "removes the chord bias of the COP on curved lines such as a bent cable; needs the "
-                          "orientation (a cycle without one records nothing). ``\"region\"``: every point of the "
+                          "orientation and the line on both sides of the centre (a cycle without them records "
+                          "nothing: near a cable's tip the point would slide onto the tip). ``\"region\"``: every point of the "
                           "contact imprint (:func:`imprint_points`), each with its local pressure; covers a surface "
                           "as fast as the pad is wide.")
     voxel_m = Parameter(0.0, bound=NON_NEGATIVE,
@@ -274,6 +275,9 @@ class RecordContacts(TactileBehaviour):
         if self.point == "local":
             if f.orientation != f.orientation:  # no line direction this cycle: the COP lies on the chord
                 self._feedback = f"{len(self.contacts)} contacts, not recording (no line direction)"
+                return Status.RUNNING
+            if not line_spans_window(f):  # the line's end near the centre: the point would slide onto its tip
+                self._feedback = f"{len(self.contacts)} contacts, not recording (the line ends near the pad centre)"
                 return Status.RUNNING
             x, y = f.pad.xy_px_to_m(*local_contact_point(f).tolist())
         else:
