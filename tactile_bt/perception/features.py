@@ -415,11 +415,7 @@ def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np
     alpha = features.orientation
     if not features.in_contact or alpha != alpha or features.image is None:
         return features.cop_px
-    ux, uy = math.cos(alpha), math.sin(alpha)
-    cx, cy = features.cop_px.tolist()
-    px, py = features.pad.centre_px
-    # Position along the major axis, relative to where the axis passes closest to the centre.
-    centre_along = (px - cx) * ux + (py - cy) * uy
+    ux, uy, cx, cy, centre_along = _centre_crossing(features)
     image, mask = features.image, features.mask
     if not (image.flags.c_contiguous and image.flags.writeable and image.dtype == np.float64):
         image = np.array(image, dtype=float, order="C")
@@ -444,10 +440,17 @@ def line_spans_window(features: ContactFeatures, window_px: float = 3.0) -> bool
         return False
     if features.image is None:
         return True
-    ux, uy = math.cos(alpha), math.sin(alpha)
-    cx, cy = features.cop_px.tolist()
-    px, py = features.pad.centre_px
-    centre_along = (px - cx) * ux + (py - cy) * uy
+    ux, uy, cx, cy, centre_along = _centre_crossing(features)
     rows, cols = np.nonzero(features.mask)
     along = (cols - cx) * ux + (rows - cy) * uy
     return bool(len(along)) and along.min() <= centre_along - window_px and along.max() >= centre_along + window_px
+
+
+def _centre_crossing(features: ContactFeatures) -> tuple[float, float, float, float, float]:
+    """The major axis of a contact with a finite orientation: its unit direction ``(ux, uy)``,
+    the COP ``(cx, cy)`` it runs through and, along it from the COP, where it passes closest to
+    the pad centre (tactels)."""
+    ux, uy = math.cos(features.orientation), math.sin(features.orientation)
+    cx, cy = features.cop_px.tolist()
+    px, py = features.pad.centre_px
+    return ux, uy, cx, cy, (px - cx) * ux + (py - cy) * uy
