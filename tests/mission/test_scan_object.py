@@ -403,6 +403,24 @@ def test_planner_slides_towards_the_nearest_open_boundary():
     assert leaf.target is not None
 
 
+def test_planner_slows_near_the_pad_s_border_but_not_while_the_pad_bridges_a_hollow():
+    # the largest region at the border: the slide would drag it off the pad, so the guidance
+    # slows to a tenth; with the other rim of a hollow under the opposite border carrying a
+    # third of the load, the pad rests on both and slides at full speed
+    from tactile_bt.perception.synthetic import line_contact
+
+    rim = line_contact((0.0, 7.5), math.pi / 2, 12.0, 0.8, 2.0)
+    other = line_contact((15.0, 7.5), math.pi / 2, 12.0, 0.8, 1.0)
+    speeds = []
+    for frame in (rim, rim + other):
+        leaf, h = planner_harness(disc(0.06), (0.0, 0.0), speed_mps=0.02)
+        for _ in range(3):
+            h.tick(frame=frame)
+        speeds.append(float(np.linalg.norm(guidance()[:3])))
+    assert speeds[0] == pytest.approx(0.002, rel=0.05)
+    assert speeds[1] == pytest.approx(0.02, rel=1e-6)
+
+
 def test_planner_succeeds_when_no_frontier_is_within_the_tilt_limit():
     tilt = math.radians(68)
     steep = (math.sin(tilt), 0.0, math.cos(tilt))  # every touched cell is tilted 68°

@@ -80,6 +80,9 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
+#: A pad resting on two contacts at least half its width apart, the lesser carrying at least this
+#: share of the load, bridges a hollow: the border distance is taken from the centre of the whole load.
+_BRIDGE_SHARE = 0.25
 #: A band the table left at the foot of plane faces larger than this share of the touched area is
 #: swept (when sweeps are on) even when the scan could end without it.
 _BAND_WORTH = 0.01
@@ -240,6 +243,10 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         if f.in_contact:
             w, h = self.pad.size_m
             x, y = f.cop_xy
+            if f.others_tactels > 0 and f.others_force >= _BRIDGE_SHARE * (f.force + f.others_force):
+                ox, oy = f.pad.xy_px_to_m(*f.others_cop_px)
+                if math.hypot(ox - x, oy - y) >= 0.5 * min(w, h):  # resting on both sides of a hollow
+                    x, y = f.load_cop_xy
             margin = min(0.5 * w - abs(x), 0.5 * h - abs(y))
             speed *= min(1.0, max(_SLOWEST, (margin - _BORDER_STOP_M) / (_BORDER_SLOW_M - _BORDER_STOP_M)))
         write(self.key, tangent_guidance(self.pose, world / norm, speed))
