@@ -9,6 +9,13 @@ at most ``max_tilt_rad`` from the vertical). It applies what the re-approach fou
 surface (the cells around are unblocked, to be slid over again), the table or the arm's reach
 (the cells around are closed for that reason, which explains them), or nothing.
 
+A probe that touched the surface on the near side of the frontier (the pad landed on what it
+had touched before, as it does beyond an edge that drops away) found nothing beyond it. Then
+the next re-approach is a *far probe* of the same frontier: a level pad lowered, down to the
+table if need be, with its whole face beyond the frontier (its centre ``far_m`` past it). Where
+it comes down to the table touching nothing, nothing within its footprint stands above the
+table, and the frontier along the pad's width is closed as the table's.
+
 Layer: contacts.
 """
 
@@ -42,13 +49,21 @@ class ReapproachPlan:
         self.radius_m = float(radius_m)
         #: World xy (m) of the frontier cells re-approached so far.
         self.tried: list[np.ndarray] = []
+        #: The far probe to make next (see the module docstring), if any.
+        self.far: dict | None = None
 
     def choose(self, m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, reason: np.ndarray,
                from_xy: np.ndarray, max_tilt_rad: float) -> dict | None:
         """The re-approach of the unexplained frontier cell nearest to ``from_xy`` (world, m)
         and not within ``radius_m`` of one tried before, from :meth:`FrontierMap.classify`'s
-        output; None when there is none. ``{"frontier_xy", "probe": (point, normal),
-        "top_z"}`` (world, m)."""
+        output; None when there is none. ``{"frontier_xy", "out", "probe": (point, normal),
+        "top_z"}`` (world, m). A far probe pending (:meth:`apply`) comes first, while its
+        frontier is still unexplained."""
+        if self.far is not None:
+            job, self.far = self.far, None
+            near = np.linalg.norm(m.centre_of(rows, cols) - job["frontier_xy"], axis=1) <= m.cell_m
+            if np.any(near & np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)):
+                return job
         keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
         if not np.any(keep):
             return None
@@ -66,13 +81,37 @@ class ReapproachPlan:
         point = np.array([xy[k][0] + o[0] * self.beyond_m, xy[k][1] + o[1] * self.beyond_m, m.z_max[r, c]])
         self.tried.append(xy[k].copy())
         touched = np.isfinite(m.z_max)
-        return {"frontier_xy": xy[k].copy(), "probe": (point, normal), "top_z": float(m.z_max[touched].max())}
+        return {"frontier_xy": xy[k].copy(), "out": np.asarray(o, dtype=float).copy(), "probe": (point, normal),
+                "top_z": float(m.z_max[touched].max())}
 
-    def apply(self, m: FrontierMap, job: dict) -> str:
-        """Apply the ``result`` of a carried-out re-approach to the map; returns it."""
+    def apply(self, m: FrontierMap, job: dict, far_m: float = 0.0, table_z_m: float = math.nan,
+              half_width_m: float = 0.0) -> str:
+        """Apply the ``result`` of a carried-out re-approach to the map; returns it.
+
+        With ``far_m`` > 0, a probe that touched the surface (``job["touched"]``, world, m) less
+        than a cell beyond the frontier along ``job["out"]`` leaves the frontier as it was and
+        plans a far probe of it, centred ``far_m`` beyond it, level, lowered down to the table
+        at ``table_z_m`` (``"approach_m"``); the table it finds closes the frontier within
+        ``half_width_m`` (the pad's half width) of the frontier cell."""
         result = str(job.get("result", ""))
+        radius = self.radius_m
+        if job.get("far"):
+            radius = max(radius, half_width_m)
+        elif result == "surface" and far_m > 0 and math.isfinite(table_z_m) and "touched" in job:
+            beyond = float((np.asarray(job["touched"])[:2] - job["frontier_xy"]) @ job["out"])
+            if beyond < m.cell_m:  # landed on the touched side: nothing found beyond
+                self._plan_far(job, far_m, table_z_m)
+                return "near side"
         if result == "surface":
-            m.unblock(job["frontier_xy"], self.radius_m)
+            m.unblock(job["frontier_xy"], radius)
         elif result:
-            m.close(job["frontier_xy"], self.radius_m, result)
+            m.close(job["frontier_xy"], radius, result)
         return result
+
+    def _plan_far(self, job: dict, far_m: float, table_z_m: float) -> None:
+        """Make the far probe of ``job``'s frontier the next re-approach (see :meth:`apply`)."""
+        point = np.asarray(job["probe"][0], dtype=float)
+        xy = job["frontier_xy"] + job["out"] * far_m
+        self.far = {"frontier_xy": job["frontier_xy"].copy(), "out": job["out"].copy(), "far": True,
+                    "probe": (np.array([xy[0], xy[1], point[2]]), np.array([0.0, 0.0, 1.0])),
+                    "approach_m": max(float(point[2] - table_z_m), 0.0), "top_z": job["top_z"]}

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import numpy.testing as npt
 
-from tactile_bt.contacts.frontier_map import OPEN, FrontierMap
+from tactile_bt.contacts.frontier_map import GAP, OPEN, FrontierMap
 from tactile_bt.contacts.reapproach_plan import ReapproachPlan, clamp_tilt
 
 SLOPE = math.radians(40)
@@ -65,3 +65,43 @@ def test_a_normal_steeper_than_the_limit_is_turned_up_to_it():
     c = clamp_tilt(n, math.radians(60))
     npt.assert_allclose(c, [math.sin(math.radians(60)), 0.0, math.cos(math.radians(60))])
     npt.assert_allclose(clamp_tilt(np.array([0.0, 0.0, 1.0]), 0.5), [0.0, 0.0, 1.0])
+
+
+def _probed_edge(rng, touched_x):
+    """A level top at 50 mm ending in an edge along y at x = 0 that every attempt stalled at,
+    probed once; the probe touched at ``touched_x`` (m)."""
+    x = rng.uniform(-0.06, 0.0, 6000)
+    y = rng.uniform(-0.06, 0.06, 6000)
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.1)
+    m.add(np.column_stack((x, y, np.full_like(x, 0.05))), np.tile([0.0, 0.0, 1.0], (len(x), 1)))
+    m.block((0.0, 0.0), 0.07, (1.0, 0.0), cause="stall")
+    rows, cols, out, reason = m.classify(math.radians(65))
+    plan = ReapproachPlan()
+    job = plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65))
+    job.update(result="surface", touched=np.array([touched_x, job["frontier_xy"][1], 0.05]))
+    return m, plan, job
+
+
+def test_a_probe_that_lands_back_on_the_touched_side_is_followed_by_a_level_probe_beyond_the_edge():
+    m, plan, job = _probed_edge(np.random.default_rng(3), touched_x=-0.015)
+    assert plan.apply(m, job, far_m=0.06, table_z_m=0.0, half_width_m=0.04) == "near side"
+    rows, cols, out, reason = m.classify(math.radians(65))
+    assert "stall" in set(reason)                                   # nothing explained yet
+    far = plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65))
+    point, normal = far["probe"]
+    npt.assert_allclose(far["frontier_xy"], job["frontier_xy"])    # the same frontier,
+    assert point[0] > job["frontier_xy"][0] + 0.055                 # with the whole pad beyond it,
+    npt.assert_allclose(normal, [0.0, 0.0, 1.0])                    # level,
+    npt.assert_allclose(far["approach_m"], 0.05, atol=0.002)        # lowered down to the table
+    # it came down to the table touching nothing: the edge along the pad's width is explained
+    far["result"] = "table"
+    plan.apply(m, far, far_m=0.06, table_z_m=0.0, half_width_m=0.04)
+    rows, cols, out, reason = m.classify(math.radians(65))
+    along = np.abs(m.centre_of(rows, cols)[:, 1] - job["frontier_xy"][1])
+    assert set(reason[(along < 0.035) & (m.centre_of(rows, cols)[:, 0] > -0.004)]) - {GAP} == {"table"}
+
+
+def test_a_probe_that_touched_beyond_the_edge_opens_it_again():
+    m, plan, job = _probed_edge(np.random.default_rng(4), touched_x=0.018)
+    assert plan.apply(m, job, far_m=0.06, table_z_m=0.0, half_width_m=0.04) == "surface"
+    assert plan.far is None

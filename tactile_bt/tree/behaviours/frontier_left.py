@@ -38,6 +38,8 @@ __all__ = ["FrontierLeft", "FRONTIER_LEFT_KEY"]
 
 #: Holes in the touched area up to this many times the pad's width across are swept with its border.
 _SWEPT_HOLES = 2.0
+#: A far probe's pad lies this far (m) beyond the frontier at its nearest corner.
+_FAR_M = 0.003
 #: Blackboard key of the frontier left (see :meth:`FrontierLeft.frontier_left`).
 FRONTIER_LEFT_KEY = "/scan/frontier_left"
 
@@ -236,5 +238,6 @@ class FrontierLeft:
                 self.map.mark_empty(np.vstack(job["empty"]))
             self.ends[f"{job['sweep'].get('kind', 'border')} sweep: {job['result']}"] += 1
             return
-        result = self.plan.apply(self.map, job)
-        self.ends[f"re-approach: {result}"] += 1
+        result = self.plan.apply(self.map, job, far_m=math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m + _FAR_M,
+                                 table_z_m=self.table_z_m, half_width_m=0.5 * min(self.pad.size_m))
+        self.ends[f"{'far ' if job.get('far') else ''}re-approach: {result}"] += 1

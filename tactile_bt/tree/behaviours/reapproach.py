@@ -219,14 +219,12 @@ class Reapproach(TactileBehaviour):
         elif not self._done:
             self._phase = "approaching home" if self._going_home else "approaching"
             if touching:
-                x, y = self.features_raw.cop_xy
-                T = self.pose
-                point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+                point = self._touched()
                 on_table = math.isfinite(self._table_z) and point[2] < self._table_z + self.table_clearance_m
                 self._finish("table" if on_table else "surface")
             elif self._corner_at_table():
                 self._finish("table")
-            elif self._approached > self.standoff_m + self.approach_m:
+            elif self._approached > self.standoff_m + float(self._job.get("approach_m", self.approach_m)):
                 self._finish("nothing")
             else:
                 self.command.add(self.name, (0.0, 0.0, self.approach_speed_mps, 0.0, 0.0, 0.0))
@@ -236,6 +234,16 @@ class Reapproach(TactileBehaviour):
             return Status.SUCCESS
         self._feedback = None
         return Status.RUNNING
+
+    def _touched(self) -> np.ndarray:
+        """Where the pad touches (world, m; the centre of pressure), noted in the job as
+        ``"touched"`` while it probes."""
+        x, y = self.features_raw.cop_xy
+        T = self.pose
+        point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+        if not self._going_home:
+            self._job["touched"] = point
+        return point
 
     def _corner_at_table(self) -> bool:
         """Whether the pad's lowest corner has come within ``table_clearance_m`` of the table."""
@@ -249,6 +257,7 @@ class Reapproach(TactileBehaviour):
         position, R, phase = self._waypoints[0]
         self._phase = phase
         if touching and phase != "lifting off":
+            self._touched()
             self._finish(touched)
         elif self._move(position, R):
             self._waypoints.pop(0)
