@@ -8,7 +8,9 @@ cloud), a touched point to come back to, and the highest touched height. The ``r
 carries it out: it lifts the pad off along its normal by ``lift_m``, rises to a safe height
 above everything touched, moves over to ``standoff_m`` above the probe point along its normal,
 turning the pad to face it, and approaches along the normal until the pressure passes
-``pressure_pa``. It writes what it found to the same dict under ``"result"``:
+``pressure_pa``, for at most ``approach_m`` beyond the standoff (or the job's ``"approach_m"``: a
+far probe is lowered down to the table). It writes where it touched under ``"touched"`` (world,
+m) and what it found under ``"result"``:
 
 - ``surface``: the pad touches the object there; SUCCESS, the exploration goes on from there;
 - ``table``: it touched the table (within ``table_clearance_m`` of ``/setup/table_z_m``), or the
