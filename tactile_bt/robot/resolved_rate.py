@@ -59,15 +59,6 @@ from tactile_bt.control.spatial import skew
 
 __all__ = ["RateSolution", "ResolvedRateMixin"]
 
-#: Weight (1/m) of the translation rows against the rotation rows in the re-solve after a
-#: saturation: where the remaining joints cannot make the whole twist (two joints on their
-#: stops leave five for six rows), a pad translation error of 1 mm/s costs as much as a turn
-#: error of 0.1 rad/s, so that the least-squares part they drop is turning, not a slide of
-#: the pad in contact (unweighted, 1 m/s against 1 rad/s, a roll of 1.2 rad/s they could not
-#: make came out as a slide of 0.24 m/s across the surface). Where they can make it, the
-#: solution is exact and the weight changes nothing.
-_TRANSLATION_WEIGHT = 100.0
-
 
 @dataclass
 class RateSolution:
@@ -213,8 +204,6 @@ class ResolvedRateMixin:
             # dropped in the least-squares sense.
             qd[free] = damped_least_squares(rows, rest, damping if not velocity_limits else 0.0,
                                             sigma_threshold, sub, null_speed_max)[0]
-            if velocity_limits and rows.shape[0] > np.count_nonzero(free):
-                qd[free] = _translation_first(rows, rest, qd[free], sub, null_speed_max)
             if velocity_limits:
                 peak = self._speed_peak(qd)
         scale = 1.0 / peak
@@ -231,23 +220,6 @@ class ResolvedRateMixin:
     def _speed_peak(self, qd: np.ndarray) -> float:
         """``max(1, max_i |qd_i| / qd_max_i)``: the factor that brings ``qd`` within the velocity limits."""
         return max(1.0, float(np.max(np.abs(qd) / self.qd_max)))
-
-
-def _translation_first(rows: np.ndarray, rest: np.ndarray, qd: np.ndarray, null, null_max) -> np.ndarray:
-    """The re-solve of the free joints (``rows``, the hybrid rows left; ``rest``, the twist
-    left) with the translation weighted :data:`_TRANSLATION_WEIGHT`, where it turns the pad no
-    further from the turn asked than not turning at all would; else ``qd``, the unweighted
-    least squares. Fewer free joints than rows cannot make every twist: unweighted, the part
-    they drop mixes metres and radians, and a roll they cannot make comes out as a slide of the
-    pad across what it touches."""
-    w = np.ones(rows.shape[0])
-    w[:3] = _TRANSLATION_WEIGHT
-    x = damped_least_squares(rows * w[:, None], rest * w, 0.0, 1.0, null, null_max)[0]
-    turn_error = np.linalg.norm(rows[3:] @ x - rest[3:])
-    if turn_error <= np.linalg.norm(rest[3:]) and np.linalg.norm(rows[:3] @ x - rest[:3]) \
-            < np.linalg.norm(rows[:3] @ qd - rest[:3]):
-        return x
-    return qd
 
 
 def _without_axis(axis: np.ndarray) -> np.ndarray:

@@ -169,29 +169,3 @@ def test_with_the_wrist_on_its_stop_a_retreat_still_moves_the_pad_away():
     rolling = retreat_s + np.array([0.0, 0.0, 0.0, 0.1, 0.0, 0.0])
     slowed = arm_kin.resolved_rate(q, body_to_spatial(T, rolling), dt=0.004, return_info=True)
     assert slowed.saturated[6] and slowed.scale < 0.5
-
-
-def test_with_two_wrist_joints_on_their_stops_a_roll_they_cannot_make_does_not_slide_the_pad():
-    """Joints 5 and 7 on their upper stops (a ring scanned round and round winds the wrist up)
-    leave five joints for the six parts of a twist. The tree asks for a slow slide and a fast
-    roll; unweighted least squares, metres against radians, made the roll it could not make
-    partly into a slide across the surface of about a quarter of a metre per second. Now the
-    part left out is turning: the slide is as asked, and the pad turns no further from the turn
-    asked than not turning at all would."""
-    q = np.array([-6.4, -86.7, 6.3, 87.7, 170.0, -33.0, 170.0]) * DEG
-    q[4], q[6] = Q_MAX[4], Q_MAX[6]
-    arm_kin = LWR4Kinematics(base=make_pose(None, np.array([-0.472, 0.0, 0.191])))
-    T = arm_kin.fk(q)
-    rng = np.random.default_rng(5)
-    both = 0
-    for _ in range(20):
-        twist_s = np.r_[rng.uniform(-0.02, 0.02, 3), rng.uniform(-1.2, 1.2, 3)]
-        twist_s[3:] += np.sign(twist_s[3:]) * 0.3  # pushing the wrist further onto its stops or not
-        sol = arm_kin.resolved_rate(q, body_to_spatial(T, twist_s), dt=0.004, return_info=True)
-        if not (sol.saturated[4] and sol.saturated[6]):
-            continue
-        both += 1
-        turn_asked = np.linalg.norm(T[:3, :3] @ twist_s[3:])
-        assert np.linalg.norm(sol.residual[:3]) < 0.005                    # the slide, within 5 mm/s
-        assert np.linalg.norm(sol.residual[3:]) <= turn_asked + 1e-9
-    assert both >= 5
