@@ -233,7 +233,10 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
     def _guide(self, world: np.ndarray | None) -> None:
         """Write the guidance along the world direction ``world`` (zero when None), slower as
         the contact nears the pad's border: sliding drags the contact towards the trailing
-        side, and off the pad when it sits near the border already (see ``table_offset``)."""
+        side, and off the pad when it sits near the border already (see ``table_offset``). A
+        pad bridging a hollow (another region at least half the pad's width away carrying
+        ``_BRIDGE_SHARE`` of the load or more) rests on both: the border distance is then that
+        of the centre of the whole load."""
         norm = 0.0 if world is None else float(np.linalg.norm(world))
         if norm < 1e-12:
             write(self.key, _ZERO_TWIST)
