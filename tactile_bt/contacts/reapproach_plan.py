@@ -14,7 +14,9 @@ had touched before, as it does beyond an edge that drops away) found nothing bey
 the next re-approach is a *far probe* of the same frontier: a level pad lowered, down to the
 table if need be, with its whole face beyond the frontier (its centre ``far_m`` past it). Where
 it comes down to the table touching nothing, nothing within its footprint stands above the
-table, and the frontier along the pad's width is closed as the table's.
+table, and the frontier along the pad's width is closed as the table's. The strip between the
+frontier and the pad's nearest border (3 mm at a corner, up to ``far_m`` less half the pad's
+width at an edge) stays unprobed below the frontier's height.
 
 Layer: contacts.
 """
