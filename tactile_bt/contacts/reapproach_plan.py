@@ -61,12 +61,12 @@ class ReapproachPlan:
         output; None when there is none. ``{"frontier_xy", "out", "probe": (point, normal),
         "top_z"}`` (world, m). A far probe pending (:meth:`apply`) comes first, while its
         frontier is still unexplained."""
+        keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
         if self.far is not None:
             job, self.far = self.far, None
             near = np.linalg.norm(m.centre_of(rows, cols) - job["frontier_xy"], axis=1) <= m.cell_m
-            if np.any(near & np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)):
+            if np.any(near & keep):
                 return job
-        keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
         if not np.any(keep):
             return None
         xy = m.centre_of(rows[keep], cols[keep])

@@ -31,6 +31,7 @@ __all__ = [
     "body_to_spatial",
     "exp_twist",
     "integrate_spatial",
+    "pad_point",
     "transform_points",
 ]
 
@@ -144,6 +145,12 @@ def exp_twist(twist: np.ndarray, dt: float) -> np.ndarray:
 def integrate_spatial(T: np.ndarray, twist_g: np.ndarray, dt: float) -> np.ndarray:
     """Move pose ``T`` (base frame) by the spatial twist ``twist_g`` for ``dt`` seconds."""
     return exp_twist(twist_g, dt) @ T
+
+
+def pad_point(T: np.ndarray, x: float, y: float) -> np.ndarray:
+    """World position (m) of the point ``(x, y)`` (m) in the plane of the pad whose pose is ``T``
+    (sensor frame, e.g. a centre of pressure)."""
+    return T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
 
 
 def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:

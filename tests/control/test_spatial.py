@@ -4,7 +4,8 @@ import numpy as np
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.control.spatial import adjoint, body_to_spatial, exp_twist, integrate_spatial, invert, make_pose, transform_points
+from tactile_bt.control.spatial import (adjoint, body_to_spatial, exp_twist, integrate_spatial, invert, make_pose,
+                                        pad_point, transform_points)
 
 
 def random_pose(rng):
@@ -59,3 +60,11 @@ def test_spatial_twist_moves_the_sensor_as_its_body_twist():
 def test_transform_points():
     T = make_pose(Rotation.from_euler("z", 90, degrees=True), (1.0, 0.0, 0.0))
     assert_allclose(transform_points(T, np.array([[1.0, 0.0, 0.0]])), [[1.0, 1.0, 0.0]], atol=1e-12)
+
+
+def test_a_point_in_the_pad_plane_goes_to_the_world_as_the_pose_takes_it():
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        T = random_pose(rng)
+        x, y = rng.normal(scale=0.04, size=2)
+        assert_allclose(pad_point(T, x, y), transform_points(T, np.array([[x, y, 0.0]]))[0], atol=1e-12)

@@ -57,6 +57,7 @@ import numpy as np
 from py_trees.common import Access, Status
 
 from tactile_bt.contacts.frontier_map import FrontierMap, describe_left
+from tactile_bt.control.spatial import pad_point
 from tactile_bt.contacts.reapproach_plan import ReapproachPlan
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.frontier_ends import FrontierEnds
@@ -221,9 +222,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         if not f.in_contact:
             self._point = None
             return None
-        T = self.pose
-        x, y = f.cop_xy
-        point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+        point = pad_point(self.pose, *f.cop_xy)
         if self._point is None:
             self._point = point
         else:

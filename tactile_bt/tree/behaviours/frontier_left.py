@@ -105,7 +105,7 @@ class FrontierLeft:
         self.left = {str(k): float(c) * self.cell_m for k, c in zip(names, counts)}
         # the table kept the pad from the surface below these: how much is left there
         band = reason == "table"
-        reach = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m  # contact to the farthest corner
+        reach = self.pad.half_diagonal_m + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         face = face_going_on(self.map, rows[band], cols[band], out[band], steep, self.table_z_m, reach)
         below = untouched_below(self.map, rows[band], cols[band], out[band], self.table_z_m, steep,
@@ -238,6 +238,6 @@ class FrontierLeft:
                 self.map.mark_empty(np.vstack(job["empty"]))
             self.ends[f"{job['sweep'].get('kind', 'border')} sweep: {job['result']}"] += 1
             return
-        result = self.plan.apply(self.map, job, far_m=math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m + _FAR_M,
+        result = self.plan.apply(self.map, job, far_m=self.pad.half_diagonal_m + self.corner_margin_m + _FAR_M,
                                  table_z_m=self.table_z_m, half_width_m=0.5 * min(self.pad.size_m))
         self.ends[f"{'far ' if job.get('far') else ''}re-approach: {result}"] += 1

@@ -38,6 +38,7 @@ from py_trees.common import Access, Status
 from scipy.spatial.transform import Rotation
 
 from tactile_bt import defaults
+from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, table_height
 from tactile_bt.tree.blackboard import read_or
@@ -138,7 +139,7 @@ class Reapproach(TactileBehaviour):
         the normal (when in contact), rise to ``clearance_m`` above ``top_z`` (the highest touched point) unless
         its lowest corner is that high already, move over, turning, and lower."""
         T = self.pose
-        half_diagonal = math.hypot(*self.pad.size_m) / 2 + self.corner_margin_m
+        half_diagonal = self.pad.half_diagonal_m + self.corner_margin_m
         # lift off a contact; a pad in the air (a move cut short at the arm's reach) rises at once
         lifted = T[:3, 3] - T[:3, 2] * self.lift_m if self.features.in_contact else T[:3, 3].copy()
         tilt_now = math.sqrt(max(0.0, 1.0 - T[2, 2] ** 2))
@@ -240,9 +241,7 @@ class Reapproach(TactileBehaviour):
     def _touched(self) -> np.ndarray:
         """Where the pad touches (world, m; the centre of pressure), noted in the job as
         ``"touched"`` while it probes."""
-        x, y = self.features_raw.cop_xy
-        T = self.pose
-        point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+        point = pad_point(self.pose, *self.features_raw.cop_xy)
         if not self._going_home:
             self._job["touched"] = point
         return point

@@ -37,6 +37,7 @@ from typing import Literal, Sequence
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.base import TactileBehaviour, norm
 from tactile_bt.tree.behaviours.table import table_height
 from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or, write
@@ -132,8 +133,7 @@ class SurfaceEnd(TactileBehaviour):
         f = read(FEATURES_RAW)
         point = None
         if f.in_contact:
-            x, y = f.cop_xy
-            point = T[:3, 0] * x + T[:3, 1] * y + T[:3, 3]
+            point = pad_point(T, *f.cop_xy)
         why = self.check(now, normal, point, f)
         if point is not None and not why:
             if self._last is not None:
@@ -428,7 +428,5 @@ class ContactBridged(SurfaceEnd):
         either side of the hollow."""
         if not features.others_tactels > 0:
             return {}
-        points = []
-        for x, y in (features.cop_xy, features.pad.xy_px_to_m(*features.others_cop_px)):
-            points.append(pose[:3, 0] * x + pose[:3, 1] * y + pose[:3, 3])
-        return {"bridge": tuple(points)}
+        return {"bridge": (pad_point(pose, *features.cop_xy),
+                           pad_point(pose, *features.pad.xy_px_to_m(*features.others_cop_px)))}
