@@ -29,7 +29,12 @@ the whole pad motion down on its commanded path, down to holding the pad, instea
 damping turn the part they cannot make into a motion in another direction.  (That was a 35 to
 55 mm sideways jump of the pad when joint 7 saturated during a turn about the pad normal; see
 docs/scanning.md, "Limits".)  What they cannot do at all (the elbow's direction, with joint 4 on
-its stop) is dropped in the least-squares sense.  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
+its stop) is dropped in the least-squares sense.  With fewer joints left than parts of the twist
+(two joints on their stops while the pad turns), that least-squares fit would weigh metres per
+second against radians per second and trade a roll the wrist cannot make for a slide of the pad
+(0.3 m/s into a ring's side, with joints 5 and 7 wound onto their stops): there the translation
+is made first and the turn only as far as the joints left over can make it
+(:func:`translation_first`).  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
 centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
 damped (approximate) solution independent of where the base origin lies.
 
@@ -193,17 +198,24 @@ class ResolvedRateMixin:
             rest = Vh - Jh[:, ~free] @ qd[~free]
             sub = None if null is None else null[free]
             rows = Jh[:, free]
-            if not free[-1] and not np.any(Vh[3:]):  # a pure translation with the flange's own rotation
-                keep = _without_axis(J[3:, -1])      # on its stop: the pad may turn about that axis
+            pure = not np.any(Vh[3:])  # a pure translation: the supervisor's retreat, a lift-off
+            if pure and not free[-1]:  # with the flange's own rotation on its stop:
+                keep = _without_axis(J[3:, -1])  # the pad may turn about that axis
                 rows, rest = keep @ rows, keep @ rest
             # With the speed scaling, undamped: exact where the other joints can do it. Damping
             # would trade the rotation they can hardly make for a translation nobody asked for
             # (the pad "jumps" sideways); the speed scaling below scales the whole twist
             # instead, so the pad slows down on its path and holds where the rest is out of
             # reach. What the remaining joints cannot do at all (the elbow's direction) is
-            # dropped in the least-squares sense.
-            qd[free] = damped_least_squares(rows, rest, damping if not velocity_limits else 0.0,
-                                            sigma_threshold, sub, null_speed_max)[0]
+            # dropped in the least-squares sense; with fewer joints than rows, or for a pure
+            # translation, the turn is dropped before the slide.
+            lam = damping if not velocity_limits else 0.0
+            if rows.shape[0] > rows.shape[1]:  # fewer joints left than parts of the twist
+                qd[free] = translation_first(rows, rest, lam, lam, sigma_threshold, sub, null_speed_max)
+            elif pure and free[-1]:  # hold the orientation only as far as it goes without a crawl
+                qd[free] = translation_first(rows, rest, lam, damping, sigma_threshold, sub, null_speed_max)
+            else:
+                qd[free] = damped_least_squares(rows, rest, lam, sigma_threshold, sub, null_speed_max)[0]
             if velocity_limits:
                 peak = self._speed_peak(qd)
         scale = 1.0 / peak
@@ -232,6 +244,31 @@ def _without_axis(axis: np.ndarray) -> np.ndarray:
     keep[:3, :3] = np.eye(3)
     keep[3, 3:], keep[4, 3:] = u, np.cross(a, u)
     return keep
+
+
+def translation_first(rows: np.ndarray, V: np.ndarray, lam_max: float, lam_turn: float, eps: float, null=None,
+                      null_max: float | None = None) -> np.ndarray:
+    """Joint velocities for the hybrid twist rows ``rows`` (translation first, then rotation)
+    when fewer joints are left than rows: the translation ``V[:3]`` as well as the joints can
+    make it (:func:`damped_least_squares`), then the rotation ``V[3:]`` as far as it goes
+    without disturbing the translation (in the null space of the translation rows), damped up
+    to ``lam_turn`` (rad/rad) where the joints could make it only with large velocities.
+
+    Where the whole twist can be made this is the minimum-norm solution
+    :func:`damped_least_squares` gives; where it cannot, what is dropped is turn (rad/s), never
+    a slide (m/s) of the pad that nobody asked for, as a least-squares fit over both units would.
+    ``null`` is projected on what null space is left of all rows.
+    """
+    P, W = rows[:3], rows[3:]
+    x = damped_least_squares(P, V[:3], lam_max, eps)[0]
+    _, s, Vt = np.linalg.svd(P)
+    N = Vt[int(np.count_nonzero(s > 1e-9)):].T  # joint motions that leave the translation alone
+    if N.shape[1] and W.shape[0]:
+        z = damped_least_squares(W @ N, V[3:] - W @ x, lam_turn, eps)[0]
+        x = x + N @ z
+    if null is not None:
+        x = x + damped_least_squares(rows, np.zeros(rows.shape[0]), 0.0, eps, null, null_max)[0]
+    return x
 
 
 def damped_least_squares(J: np.ndarray, V: np.ndarray, lam_max: float, eps: float, null=None,

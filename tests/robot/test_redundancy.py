@@ -169,3 +169,27 @@ def test_with_the_wrist_on_its_stop_a_retreat_still_moves_the_pad_away():
     rolling = retreat_s + np.array([0.0, 0.0, 0.0, 0.1, 0.0, 0.0])
     slowed = arm_kin.resolved_rate(q, body_to_spatial(T, rolling), dt=0.004, return_info=True)
     assert slowed.saturated[6] and slowed.scale < 0.5
+
+
+def test_with_two_wrist_joints_on_their_stops_a_roll_they_cannot_make_is_not_turned_into_a_slide():
+    """Joints 5 and 7 wound onto their upper stops going round a ring (a posture of a torus scan)
+    and the servo asks a roll of 1.2 rad/s: five joints are left for six parts of the twist. A
+    least-squares fit weighing m/s against rad/s made the roll it could not make into a slide of
+    the pad of 0.3 m/s, which pressed the pad's corner into the ring. Now the translation asked is
+    made, and the turn as far as the joints left can make it, no further from the turn asked than
+    holding still."""
+    arm_kin = LWR4Kinematics(base=make_pose(None, np.array([-0.472, 0.0, 0.191])))
+    q = np.array([-6.7, -85.0, 5.1, 89.4, 170.0, -30.7, 170.0]) * DEG
+    q[4], q[6] = Q_MAX[4], Q_MAX[6]
+    T = arm_kin.fk(q)
+    servo_s = np.array([0.022, -0.017, 0.006, 0.521, 1.2, 0.173])
+    V = body_to_spatial(T, servo_s)
+    sol = arm_kin.resolved_rate(q, V, dt=0.004, return_info=True)
+    assert sol.saturated[4] and sol.saturated[6] and sol.scale == 1.0
+    assert_allclose(sol.residual[:3], 0.0, atol=1e-9)                       # the translation, exactly
+    assert np.linalg.norm(sol.residual[3:]) < np.linalg.norm(V[3:])          # and some of the turn
+    # the same twist that the joints left can make is still made exactly
+    turn_left = sol.residual[3:]  # (hybrid twist of the pad centre: the spatial one less p x w)
+    doable = V - np.r_[np.cross(T[:3, 3], turn_left), turn_left]
+    again = arm_kin.resolved_rate(q, doable, dt=0.004, return_info=True)
+    assert_allclose(again.residual, 0.0, atol=1e-6)
