@@ -248,8 +248,9 @@ def _without_axis(axis: np.ndarray) -> np.ndarray:
 
 def translation_first(rows: np.ndarray, V: np.ndarray, lam_max: float, lam_turn: float, eps: float, null=None,
                       null_max: float | None = None) -> np.ndarray:
-    """Joint velocities for the hybrid twist rows ``rows`` (translation first, then rotation)
-    when fewer joints are left than rows: the translation ``V[:3]`` as well as the joints can
+    """Joint velocities for the hybrid twist rows ``rows``, translation first, then rotation (the
+    re-solve after a saturation, when fewer joints are left than rows or the twist is a pure
+    translation): the translation ``V[:3]`` as well as the joints can
     make it (:func:`damped_least_squares`), then the rotation ``V[3:]`` as far as it goes
     without disturbing the translation (in the null space of the translation rows), damped up
     to ``lam_turn`` (rad/rad) where the joints could make it only with large velocities.

@@ -193,3 +193,21 @@ def test_with_two_wrist_joints_on_their_stops_a_roll_they_cannot_make_is_not_tur
     doable = V - np.r_[np.cross(T[:3, 3], turn_left), turn_left]
     again = arm_kin.resolved_rate(q, doable, dt=0.004, return_info=True)
     assert_allclose(again.residual, 0.0, atol=1e-6)
+
+
+def test_with_joint_5_on_its_stop_a_retreat_is_made_at_full_speed():
+    """The supervisor's retreat (a pure translation) with joint 5 on its upper stop, in a posture
+    of the wide ring's scan: holding the pad's orientation exactly as well needed joint speeds far
+    over their limits, and the speed scaling slowed the retreat to a crawl while a corner stayed
+    pressed in. The translation comes first: the retreat is made in full, the orientation held as
+    far as the joints can without a crawl."""
+    arm_kin = LWR4Kinematics(base=make_pose(None, np.array([-0.472, 0.0, 0.191])))
+    q = np.array([-21.1, -92.7, 21.5, 88.2, 170.0, -44.3, -33.3]) * DEG
+    q[4] = Q_MAX[4]
+    T = arm_kin.fk(q)
+    retreat_s = np.array([0.011, -0.045, -0.05, 0.0, 0.0, 0.0])
+    sol = arm_kin.resolved_rate(q, body_to_spatial(T, retreat_s), dt=0.004, return_info=True)
+    assert sol.saturated[4] and sol.saturated.sum() == 1
+    assert sol.scale > 0.99
+    assert_allclose(sol.residual[:3], 0.0, atol=1e-9)
+    assert np.linalg.norm(sol.residual[3:]) < 0.2  # rad/s: the pad turns a little as it backs off
