@@ -196,6 +196,13 @@ class ContactFeatures:
         share = other / (other + self.force)
         return x + share * (ox - x), y + share * (oy - y)
 
+    @property
+    def lesser_share(self) -> float:
+        """Share of the load on the lesser of the largest region and the other regions together
+        (0 to 0.5; 0 with one region): how evenly a pad bridging a hollow rests on both sides."""
+        other = self.others_force if self.others_tactels > 0 else 0.0
+        return min(other, self.force) / (other + self.force) if other > 0.0 else 0.0
+
     @classmethod
     def no_contact(
         cls,

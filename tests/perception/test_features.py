@@ -393,3 +393,18 @@ def test_the_centre_of_every_region_together_is_the_force_weighted_centre_of_the
     # one region: the largest region's own centre
     single = extract(blob_contact((7.5, 7.5), 2.0, 2.0), defaults.CONTACT_THRESHOLD_N)
     assert single.others_tactels == 0 and single.load_cop_xy == single.cop_xy
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_lesser_share_is_the_lighter_side_s_part_of_the_whole_load(seed):
+    # a pad bridging a hollow rests on two contacts: the lighter side's share of the load, the
+    # same whichever of the two is the largest region; 0 with one region
+    rng = np.random.default_rng(seed)
+    image = blob_contact(rng.uniform((2, 2), (4, 13)), 0.7, 2.0) + blob_contact(rng.uniform((11, 2), (13, 13)), 0.7, 1.0)
+    f = extract(image, defaults.CONTACT_THRESHOLD_N)
+    assert f.others_tactels > 0
+    total = f.force + f.others_force
+    assert_allclose(f.lesser_share, min(f.force, f.others_force) / total, rtol=1e-12)
+    assert 0.0 < f.lesser_share <= 0.5
+    single = extract(blob_contact((7.5, 7.5), 2.0, 2.0), defaults.CONTACT_THRESHOLD_N)
+    assert single.lesser_share == 0.0

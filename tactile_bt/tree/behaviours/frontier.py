@@ -57,8 +57,8 @@ import numpy as np
 from py_trees.common import Access, Status
 
 from tactile_bt.contacts.frontier_map import FrontierMap, describe_left
-from tactile_bt.control.spatial import pad_point
 from tactile_bt.contacts.reapproach_plan import ReapproachPlan
+from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.frontier_ends import FrontierEnds
 from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, FrontierLeft

@@ -165,9 +165,7 @@ class _FollowKey:
         x, y = f.cop_xy
         if not (self.all_regions and f.in_contact and f.others_tactels > 0):
             return x, y
-        other = f.others_force
-        share = min(other, f.force) / (other + f.force) if other > 0.0 else 0.0
-        blend = min(max(2.0 * share / self.bridge_share - 1.0, 0.0), 1.0)
+        blend = min(max(2.0 * f.lesser_share / self.bridge_share - 1.0, 0.0), 1.0)
         if not blend:
             return x, y
         lx, ly = f.load_cop_xy

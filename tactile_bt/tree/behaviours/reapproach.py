@@ -222,7 +222,7 @@ class Reapproach(TactileBehaviour):
         elif not self._done:
             self._phase = "approaching home" if self._going_home else "approaching"
             if touching:
-                point = self._touched()
+                point = self._note_touch()
                 on_table = math.isfinite(self._table_z) and point[2] < self._table_z + self.table_clearance_m
                 self._finish("table" if on_table else "surface")
             elif self._corner_at_table():
@@ -238,9 +238,9 @@ class Reapproach(TactileBehaviour):
         self._feedback = None
         return Status.RUNNING
 
-    def _touched(self) -> np.ndarray:
-        """Where the pad touches (world, m; the centre of pressure), noted in the job as
-        ``"touched"`` while it probes."""
+    def _note_touch(self) -> np.ndarray:
+        """Note where the pad touches (world, m; the centre of pressure) in the job as
+        ``"touched"`` while it probes, and return it."""
         point = pad_point(self.pose, *self.features_raw.cop_xy)
         if not self._going_home:
             self._job["touched"] = point
@@ -258,7 +258,7 @@ class Reapproach(TactileBehaviour):
         position, R, phase = self._waypoints[0]
         self._phase = phase
         if touching and phase != "lifting off":
-            self._touched()
+            self._note_touch()
             self._finish(touched)
         elif self._move(position, R):
             self._waypoints.pop(0)

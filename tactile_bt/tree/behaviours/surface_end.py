@@ -408,9 +408,8 @@ class ContactBridged(SurfaceEnd):
         self._last_bridged = -math.inf
 
     def check(self, now, normal, point, features) -> str:
-        other = features.others_force if point is not None and features.others_tactels > 0 else 0.0
-        share = other / (other + features.force) if other > 0.0 else 0.0
-        if min(share, 1.0 - share) < self.min_share:
+        share = features.lesser_share if point is not None else 0.0
+        if share < self.min_share:
             if now - self._last_bridged > self.gap_s:
                 self._since = None
             return ""
