@@ -377,15 +377,21 @@ def test_the_other_regions_are_everything_above_the_threshold_outside_the_larges
     assert other_contact(f) == ((f.others_force, f.others_tactels) if f.others_tactels else (0.0, 0))
 
 
+def bridged(seed: int):
+    """Features of two contacts near opposite borders (a flat pad bridging a hollow), seeded."""
+    rng = np.random.default_rng(seed)
+    image = blob_contact(rng.uniform((2, 2), (4, 13)), 0.7, 2.0) + blob_contact(rng.uniform((11, 2), (13, 13)), 0.7, 1.0)
+    f = extract(image, defaults.CONTACT_THRESHOLD_N)
+    assert f.others_tactels > 0
+    return f
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_the_centre_of_every_region_together_is_the_force_weighted_centre_of_the_image(seed):
     # two contacts on the pad (a flat pad bridging a hollow): the centre of pressure of both
     # together is the force-weighted centre of every tactel above the threshold, whichever is
     # the largest
-    rng = np.random.default_rng(seed)
-    image = blob_contact(rng.uniform((2, 2), (4, 13)), 0.7, 2.0) + blob_contact(rng.uniform((11, 2), (13, 13)), 0.7, 1.0)
-    f = extract(image, defaults.CONTACT_THRESHOLD_N)
-    assert f.others_tactels > 0
+    f = bridged(seed)
     used = np.where(f.image > defaults.CONTACT_THRESHOLD_N, f.image, 0.0)
     rows, cols = np.indices(used.shape)
     expected = f.pad.xy_px_to_m(float((used * cols).sum() / used.sum()), float((used * rows).sum() / used.sum()))
@@ -399,10 +405,7 @@ def test_the_centre_of_every_region_together_is_the_force_weighted_centre_of_the
 def test_the_lesser_share_is_the_lighter_side_s_part_of_the_whole_load(seed):
     # a pad bridging a hollow rests on two contacts: the lighter side's share of the load, the
     # same whichever of the two is the largest region; 0 with one region
-    rng = np.random.default_rng(seed)
-    image = blob_contact(rng.uniform((2, 2), (4, 13)), 0.7, 2.0) + blob_contact(rng.uniform((11, 2), (13, 13)), 0.7, 1.0)
-    f = extract(image, defaults.CONTACT_THRESHOLD_N)
-    assert f.others_tactels > 0
+    f = bridged(seed)
     total = f.force + f.others_force
     assert_allclose(f.lesser_share, min(f.force, f.others_force) / total, rtol=1e-12)
     assert 0.0 < f.lesser_share <= 0.5
