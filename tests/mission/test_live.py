@@ -1,5 +1,10 @@
 """Live missions end to end: ``tactile-bt live`` against the real-time twin (``tactile-bt twin``),
-over ROS 2 on this host and the emulated sensor on a pty, with the faults a real set-up has."""
+over ROS 2 on this host and the emulated sensor on a pty, with the faults a real set-up has.
+
+The twin runs in real time, and a machine busy with other work can hold it or the mission back
+for longer than the twin runs a twist unsupervised: the cable-following test then runs again
+(:func:`starved_for` reads the stalls from the run's own records), and is skipped, naming the
+stalls, when the machine starves every run."""
 
 from __future__ import annotations
 
@@ -72,25 +77,59 @@ def _domain(request) -> int:
     return 1 + (abs(hash(request.node.nodeid)) + os.getpid()) % 200
 
 
-def test_live_against_the_twin_follows_the_whole_cable(tmp_path, request):
-    domain = _domain(request)
-    with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
-        proc = live(CABLE_TREE, port, relaxed(robot), tmp_path / "live", "--truth", "sim/cable.yaml",
-                    "--duration", "60", domain=domain)
-        out, err = proc.communicate(timeout=180)
-    report = json.loads((tmp_path / "live" / "report.json").read_text())
+#: Runs of a real-time test made before it gives up on a machine too busy to hold real time.
+ATTEMPTS = 3
+
+
+def starved_for(report: dict, recorded) -> float:
+    """The longest time (s) the machine held back the mission's loop, the twin's world or the
+    twists between them, when that is longer than the twin runs a twist unsupervised (its
+    hold): then the run's end depends on the machine's load, not on the software, and says
+    nothing either way. 0 when no stall was that long."""
+    gaps = [report["realtime"]["period_ms"]["max"] / 1e3]
+    commands, poses = recorded["command_time_s"], recorded["pose_time_s"]
+    if len(commands) > 1:  # while the mission commanded the arm (the twin's start-up is not its business)
+        steps = poses[(poses >= commands[0]) & (poses <= commands[-1])]
+        gaps += [float(np.diff(commands).max()), float(np.diff(steps).max()) if len(steps) > 1 else 0.0]
+    longest = max(gaps)
+    return longest if longest > float(recorded["hold_after_s"]) else 0.0
+
+
+def _followed_the_whole_cable(report: dict, recorded, live_out: Path, err: str) -> None:
     assert report["status"] == "success" and report["reason"].startswith("cable_end"), (report["reason"], err[-2000:])
     path = report["path_error_m"]
-    assert path["mean"] <= 1e-3 and path["max"] <= 3e-3
-    assert path["followed_m"] >= 0.85 * path["cable_length_m"]
+    assert path["mean"] <= 1e-3 and path["max"] <= 3e-3, path
+    assert path["followed_m"] >= 0.85 * path["cable_length_m"], path
     rt = report["realtime"]
     for key in ("latency_ms", "period_ms", "jitter_ms"):
         assert {"p50", "p90", "p99", "max"} <= set(rt[key])
     assert rt["period_ms"]["p50"] == pytest.approx(4.0, abs=0.5)  # paced by the sensor's 250 Hz frames
     for name in ("log.npz", "errors.png", "realtime.png", "contacts.ply", "tree.png"):
-        assert (tmp_path / "live" / name).stat().st_size > 0, name
-    recorded = np.load(tmp_path / "twin" / "twin.npz")
+        assert (live_out / name).stat().st_size > 0, name
     np.testing.assert_array_equal(recorded["command_twist"][-1], np.zeros(6))  # the last twist: zero
+
+
+def test_live_against_the_twin_follows_the_whole_cable(tmp_path, request):
+    domain = _domain(request)
+    stalls = []
+    for attempt in range(ATTEMPTS):
+        out = tmp_path / f"run{attempt}"
+        with twin("sim/cable.yaml", out / "twin", domain=domain) as (port, robot, _):
+            proc = live(CABLE_TREE, port, relaxed(robot), out / "live", "--truth", "sim/cable.yaml",
+                        "--duration", "60", domain=domain)
+            _, err = proc.communicate(timeout=180)
+        report = json.loads((out / "live" / "report.json").read_text())
+        recorded = np.load(out / "twin" / "twin.npz")
+        stall = starved_for(report, recorded)
+        if not stall:  # the run says what the software does
+            _followed_the_whole_cable(report, recorded, out / "live", err)
+            return
+        try:  # a run passing all that, stalls and all, passes
+            _followed_the_whole_cable(report, recorded, out / "live", err)
+            return
+        except AssertionError as failed:
+            stalls.append(f"{stall * 1e3:.0f} ms ({str(failed).splitlines()[0][:200]})")
+    pytest.skip(f"this machine held the real-time loop back on every run: {'; '.join(stalls)}")
 
 
 def _wait_for_commands(twin_out: Path, proc: subprocess.Popen, seconds: float) -> None:
