@@ -155,7 +155,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
     from tactile_bt.sense.hardware.driver import SerialTactileSensor
     from tactile_bt.sim.scene import Scene, load_scene
     from tactile_bt.tree.behaviours.table import write_table_height
-    from tactile_bt.tree.blackboard import write_joints_held
+    from tactile_bt.tree.blackboard import write_joints_held, write_turn_room
     from tactile_bt.tree.loader import load_tree
 
     warmup.start()  # on a cold kernel cache, compile now: never in the first cycles on the arm
@@ -177,6 +177,7 @@ def run_live(tree, sensor: str, robot: str | Path | RobotFile, *, duration: floa
         calibration = TactelCalibration.nominal(pad=pad)
     write_table_height(setup.table_z_m)
     write_joints_held(None)  # nothing held yet (nor left from an earlier mission in this process)
+    write_turn_room(None)  # a robot file does not say which joint turns the pad about its normal
     limits = SupervisorLimits.for_tree(tree, {"sensor_silence_s": defaults.LIVE_SENSOR_SILENCE_PERIODS * dt,
                                               **setup.supervisor})
     n_cycles = MAX_CYCLES if duration is None else int(round(duration * setup.rate_hz))

@@ -45,6 +45,9 @@ from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["MountSpec", "CartesianMount", "ArmMount", "MountError", "MOUNT_TYPES"]
 
+#: The pad normal lies along joint 7's axis when their directions' cosine is at least this (10°).
+_ALONG_COS = 0.985
+
 MOUNT_TYPES = ("cartesian", "lwr4")
 
 class CartesianMount(SimulatedRobot):
@@ -101,6 +104,9 @@ class ArmMount(SimulatedRobot):
         # tol: joint-torque residual of the contact solve, 1e-3 N m ≈ a few µm at the pad.
         self.arm = CompliantArm(kin, q0=q0, stiffness=stiffness, damping=damping, tol=1e-3,
                                 pad_radius=(pad if pad is not None else PadGeometry()).half_diagonal_m)
+        # joint 7 turns the flange about its z: the pad about its normal when that lies along it
+        along = float(kin.fk_flange(q0)[:3, 2] @ kin.fk(q0)[:3, 2])
+        self._turn_sign = int(np.sign(along)) if abs(along) > _ALONG_COS else 0
 
     @property
     def pose(self) -> np.ndarray:
@@ -131,6 +137,17 @@ class ArmMount(SimulatedRobot):
         if sol is None:
             return np.zeros(7, dtype=bool), np.zeros(6)
         return sol.saturated.copy(), sol.residual.copy()
+
+    def turn_room(self) -> tuple[int, float, float] | None:
+        """How far (rad) the pad can still turn about its normal each way before joint 7, whose
+        axis is the flange's (and so the pad normal's, the pad being mounted flat on the flange),
+        reaches a limit: ``(7, about +z, about -z)``; None where the pad normal does not lie along
+        that axis."""
+        if self._turn_sign == 0:
+            return None
+        q, (q_min, q_max) = self.arm.q[6], self.limits
+        up, down = max(float(q_max[6] - q), 0.0), max(float(q - q_min[6]), 0.0)
+        return (7, up, down) if self._turn_sign > 0 else (7, down, up)
 
     def joint_state(self) -> JointState:
         """Joint angles, limits and the joints the last :meth:`move` held on a limit, stamped

@@ -14,11 +14,17 @@ key                content
 ``pad``            the pad's :class:`~tactile_bt.sense.geometry.PadGeometry`
 =================  ==================================================================
 
-One key outside ``/tactile`` comes from the arm: ``/robot/joints_held`` (:data:`JOINTS_HELD`),
-the joints (numbered from 1) the arm held at a position limit in the last cycle, written by
-:func:`write_joints_held` after the arm has moved; absent when the mount says nothing of its
-joints. A pad that stops following where the planner sends it is then out of the arm's reach,
-not at the end of the surface.
+Two keys outside ``/tactile`` come from the arm, written after it has moved:
+
+- ``/robot/joints_held`` (:data:`JOINTS_HELD`), the joints (numbered from 1) the arm held at a
+  position limit in the last cycle (:func:`write_joints_held`). A pad that stops following where
+  the planner sends it is then out of the arm's reach, not at the end of the surface.
+- ``/robot/turn_room`` (:data:`TURN_ROOM`), a :class:`TurnRoom`: how far the pad can still turn
+  about its normal each way before the joint that turns it there (the wrist's last) reaches its
+  limit (:func:`write_turn_room`). A square pad turned by a quarter turn senses the same, so a
+  pad whose wrist is wound onto that limit can turn back and go on.
+
+Either is absent when the mount says nothing of its joints.
 
 The keys are registered once by :func:`cycle_writer` (so py_trees knows who writes them); the
 per-cycle values are then read and written through :func:`read` and :func:`write`, straight in
@@ -30,6 +36,7 @@ Layer: tree.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -38,7 +45,8 @@ from py_trees.common import Access
 
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["JOINTS_HELD", "write_joints_held", "joints_held", "NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or",
+__all__ = ["JOINTS_HELD", "write_joints_held", "joints_held", "TURN_ROOM", "TurnRoom", "write_turn_room", "turn_room",
+           "NAMESPACE", "KEYS", "FEATURES", "FEATURES_RAW", "TIME", "POSE", "PAD", "cycle_writer", "read", "read_or",
            "pressure_target", "write", "write_cycle", "current_pad"]
 
 NAMESPACE = "/tactile"
@@ -48,6 +56,9 @@ FEATURES, FEATURES_RAW, TIME, POSE, PAD = (f"{NAMESPACE}/{k}" for k in ("feature
 #: Blackboard key of the joints the arm held at a position limit in the last cycle (tuple of
 #: joint numbers from 1; absent: the mount does not say).
 JOINTS_HELD = "/robot/joints_held"
+#: Blackboard key of the room the wrist leaves the pad to turn about its normal (a :class:`TurnRoom`;
+#: absent or None: the mount does not say).
+TURN_ROOM = "/robot/turn_room"
 _STORAGE = py_trees.blackboard.Blackboard.storage
 _NONE_HELD: tuple = ()
 _DEFAULT_PAD = PadGeometry()
@@ -97,6 +108,32 @@ def joints_held() -> tuple:
     """The joints (numbered from 1) the arm held at a position limit in the last cycle; () when
     none, or when the mount does not say."""
     return _STORAGE.get(JOINTS_HELD, _NONE_HELD) or _NONE_HELD
+
+
+@dataclass(frozen=True)
+class TurnRoom:
+    """How far (rad) the pad can still turn about its normal (the sensor's +z) before ``joint``
+    (numbered from 1), the joint that turns it so, reaches a limit: ``positive_rad`` turning
+    about +z, ``negative_rad`` about -z (both >= 0)."""
+
+    joint: int
+    positive_rad: float
+    negative_rad: float
+
+    def after(self, turn_rad: float) -> float:
+        """The room left the tighter way after the pad has turned ``turn_rad`` about +z (rad;
+        negative: past the limit)."""
+        return min(self.positive_rad - turn_rad, self.negative_rad + turn_rad)
+
+
+def write_turn_room(room: TurnRoom | None) -> None:
+    """Put the wrist's :class:`TurnRoom` on :data:`TURN_ROOM` (None: the mount does not say)."""
+    _STORAGE[TURN_ROOM] = room
+
+
+def turn_room() -> TurnRoom | None:
+    """The :class:`TurnRoom` the arm last wrote; None when the mount does not say."""
+    return _STORAGE.get(TURN_ROOM)
 
 
 def current_pad() -> PadGeometry:

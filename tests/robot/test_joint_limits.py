@@ -156,3 +156,20 @@ def test_an_unreachable_start_is_one_error_line_naming_the_scene(folded, tmp_pat
     assert "cannot reach the start pose" in line and "mount.position [0, 0, 0.3] m" in line
     assert "mount.rpy_deg [180, 0, 0]" in line and "move mount.base within reach of mount.position" in line
     assert not (out / "report.json").exists()
+
+
+def test_the_arm_says_how_far_the_pad_can_turn_about_its_normal_before_joint_7_stops_it():
+    from tactile_bt.control.spatial import body_to_spatial
+    from tactile_bt.robot.mounts import MountSpec
+
+    mount = MountSpec(type="lwr4", rpy_deg=(180.0, 0.0, 180.0)).build()  # the ready wrist, as the scan scenes
+    joint, about_plus, about_minus = mount.turn_room()
+    assert joint == 7
+    assert about_plus + about_minus == pytest.approx(Q_MAX[6] - Q_MIN[6])  # joint 7's range, split
+    # at the ready posture joint 7 is mid-range: the same room either way
+    assert about_plus == pytest.approx(about_minus, abs=math.radians(1))
+    for _ in range(250):  # 1 s turning the pad about its +z at 0.5 rad/s
+        mount.move(body_to_spatial(mount.pose, np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.5])), DT)
+    _, plus_after, minus_after = mount.turn_room()
+    assert plus_after < about_plus - math.radians(10) and minus_after > about_minus + math.radians(10)
+    assert MountSpec(type="cartesian").build().joint_state() is None  # a mount without joints says nothing

@@ -6,12 +6,14 @@ import math
 import numpy as np
 import numpy.testing as npt
 import py_trees
+import pytest
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
 from tactile_bt.tree.behaviours import Reapproach
+from tactile_bt.tree.blackboard import TurnRoom
 
 DOWN = Rotation.from_euler("x", 180, degrees=True)
 DT = 1.0 / 250.0
@@ -62,3 +64,22 @@ def test_the_pad_lifts_off_moves_over_and_lands_on_the_probe_along_its_normal():
 def test_without_a_pending_re_approach_it_succeeds_at_once():
     h = LeafHarness(Reapproach(), dt=DT, pose=make_pose(DOWN, np.array([0.0, 0.0, 0.05])))
     assert h.tick(make_features()) == Status.SUCCESS
+
+
+def test_a_pad_whose_wrist_is_wound_near_its_limit_lands_turned_back_a_quarter_turn():
+    """The square pad senses the same turned by a quarter turn: a re-approach whose wrist has
+    10° left turning the pad about -z lands turned about +z, and one with room lands as it was."""
+    probe, normal = np.array([0.05, 0.0, 0.03]), np.array([0.0, 0.0, 1.0])
+    start = make_pose(DOWN, np.array([0.0, 0.0, 0.05]))
+    turns = {}
+    for negative_room in (math.radians(10), math.radians(170)):
+        h = LeafHarness(Reapproach(), dt=DT, pose=start)
+        h.set("/robot/turn_room", TurnRoom(7, math.radians(330) - negative_room, negative_room))
+        job = {"probe": (probe, normal), "top_z": 0.03, "home": (start[:3, 3], normal)}
+        h.set("/scan/reapproach", job)
+        status, T = fly(h, lambda T: T[2, 3] <= probe[2] + 1e-4)
+        assert status == Status.SUCCESS and job["result"] == "surface"
+        npt.assert_allclose(T[:3, 2], -normal, atol=math.radians(2))
+        turns[negative_room] = Rotation.from_matrix(start[:3, :3].T @ T[:3, :3]).as_rotvec()[2]
+    assert turns[math.radians(10)] == pytest.approx(math.pi / 2, abs=math.radians(3))  # away from the limit
+    assert turns[math.radians(170)] == pytest.approx(0.0, abs=math.radians(3))

@@ -5,7 +5,9 @@ An attempt to reach a frontier ends when an end-of-surface leaf writes its end t
 (:mod:`tactile_bt.tree.behaviours.surface_end`), when the pad's lowest corner sinks to within
 ``table_clearance_m`` of the table, or when the target is not reached in time. The frontier the
 attempt was heading for is then *blocked* in that direction, with the end's cause (an arm holding
-a joint at its limit turns a stall, a lost contact or a late target into its reach), and the pad
+a joint at its limit turns a stall, a lost contact or a late target into its reach; when that
+joint is the one that turns the pad about its normal, into a wrist wound up, which a
+re-approach turning the pad back undoes), and the pad
 *backs off*, uphill and away from the way it went. A recovering ``table_clearance`` guard's alarm
 and an intervention of the supervisor end an attempt the same way, once per alarm.
 
@@ -21,7 +23,7 @@ from py_trees.common import Access
 
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, lowest_corner
-from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.blackboard import read_or, turn_room
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, normalise_key
 
@@ -40,6 +42,11 @@ _SINKING_M = 0.0005
 _HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
 #: A joint held at its limit this recently (s) explains those ends.
 _HELD_S = 1.0
+#: The cause of such an end where the one joint held is the one that turns the pad about its
+#: normal (:class:`~tactile_bt.tree.blackboard.TurnRoom`): the arm reaches on with the pad turned
+#: back by a quarter turn or two, which senses the same, so it explains nothing; a re-approach
+#: there turns the pad back (:mod:`tactile_bt.tree.behaviours.reapproach`).
+WRIST = "wrist"
 
 
 class FrontierEnds:
@@ -106,7 +113,11 @@ class FrontierEnds:
         cause = cause or why
         if cause in _HELD_CAUSES and self._held[0] and self.now - self._held[1] <= _HELD_S:
             joints = " and ".join(str(j) for j in self._held[0])
-            why, cause = f"{why} with joint {joints} at its limit", "reach"
+            room = turn_room()
+            if room is not None and self._held[0] == (room.joint,):  # only the pad's turn was stopped
+                why, cause = f"{why} with joint {joints} at its limit (the pad can turn back)", WRIST
+            else:
+                why, cause = f"{why} with joint {joints} at its limit", "reach"
         self.map.block(centre[:2], radius, d, cause=cause)
         self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
         if self.target is not None:

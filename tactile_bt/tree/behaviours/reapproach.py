@@ -7,7 +7,8 @@ the point beyond the frontier to touch and the estimated outward normal there (f
 cloud), a touched point to come back to, and the highest touched height. The ``reapproach`` leaf
 carries it out: it lifts the pad off along its normal by ``lift_m``, rises to a safe height
 above everything touched, moves over to ``standoff_m`` above the probe point along its normal,
-turning the pad to face it, and approaches along the normal until the pressure passes
+turning the pad to face it (and a quarter turn about its normal where the arm's wrist is wound
+near its limit, ``/robot/turn_room``), and approaches along the normal until the pressure passes
 ``pressure_pa``, for at most ``approach_m`` beyond the standoff (or the job's ``"approach_m"``: a
 far probe is lowered down to the table). It writes where it touched under ``"touched"`` (world,
 m) and what it found under ``"result"``:
@@ -41,7 +42,7 @@ from tactile_bt import defaults
 from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, table_height
-from tactile_bt.tree.blackboard import read_or
+from tactile_bt.tree.blackboard import read_or, turn_room
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
 
@@ -61,6 +62,9 @@ _STUCK_S = 1.0
 _M_PER_RAD = 0.03
 #: A probe point near the table stays this far (m) inside the sensing area.
 _INSIDE_M = 0.01
+#: A re-approach turns the pad a quarter turn about its normal where the wrist would otherwise
+#: leave it less room than this (rad) to turn it the tighter way (:meth:`Reapproach._unwound`).
+_UNWIND_BELOW_RAD = math.radians(45.0)
 
 
 def facing(normal: np.ndarray, x_hint: np.ndarray) -> np.ndarray:
@@ -127,12 +131,30 @@ class Reapproach(TactileBehaviour):
         when the pad's lowest corner would come within ``table_clearance_m`` of the table at
         the point."""
         T = self.pose
-        R = facing(normal, T[:3, 0])
+        R = self._unwound(facing(normal, T[:3, 0]))
         point = self._clear_of_the_table(point, normal, R)
         if point is None:
             return False
         self._route(point + normal * self.standoff_m, R, top_z)
         return True
+
+    def _unwound(self, R: np.ndarray) -> np.ndarray:
+        """``R`` (world), or ``R`` turned a quarter turn about the pad normal either way, which
+        the square pad senses the same: the one that leaves the wrist the most room to turn
+        the pad (:class:`~tactile_bt.tree.blackboard.TurnRoom`), where ``R`` would leave it less
+        than ``_UNWIND_BELOW_RAD`` the tighter way; ``R`` when the arm does not say."""
+        room = turn_room()
+        if room is None:
+            return R
+        T = self.pose
+
+        def left(Rk: np.ndarray) -> float:  # the room after the turn from here about the pad normal
+            return room.after(float(Rotation.from_matrix(T[:3, :3].T @ Rk).as_rotvec()[2]))
+
+        if left(R) >= _UNWIND_BELOW_RAD:
+            return R
+        quarter = Rotation.from_rotvec([[0.0, 0.0, math.pi / 2], [0.0, 0.0, -math.pi / 2]]).as_matrix()
+        return max([R, R @ quarter[0], R @ quarter[1]], key=left)
 
     def _route(self, standoff: np.ndarray, R: np.ndarray, top_z: float) -> None:
         """Waypoints from the pad's pose to the pose ``(standoff, R)`` (world): lift off along
