@@ -51,6 +51,21 @@ OBJECTS = {
     "torus_narrow": ("torus 160 mm across, 60 mm tall, its hole 40 mm (half the pad), 1e5 N/m", 0.06, 60,
                      "  - {type: torus, major_radius: 0.05, minor_radius: 0.03, position: [0, 0, 0.03], "
                      "stiffness: 1.0e5, friction: 0.5}\n", -0.05),
+    "torus_mid": ("torus 184 mm across, 44 mm tall, its hole 96 mm (between the pad's width and diagonal), 1e5 N/m",
+                  0.044, 60, "  - {type: torus, major_radius: 0.07, minor_radius: 0.022, position: [0, 0, 0.022], "
+                             "stiffness: 1.0e5, friction: 0.5}\n", -0.07),
+    "pyramid_steep": ("square pyramid, 100 mm base, faces at 45°, 1e5 N/m, turned 30°", 0.05, 60,
+                      "  - {type: pyramid, base: 0.10, slope_deg: 45, position: [0, 0, 0], rpy_deg: [0, 0, 30], "
+                      "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "groove_shallow": ("block 150 × 170 × 35 mm with a groove 115 mm wide and 6 mm deep, 1e5 N/m, turned −45°", 0.035,
+                       60, "  - {type: grooved_block, size: [0.15, 0.17, 0.035], groove_width: 0.115, groove_depth: 0.006, "
+                           "position: [0, 0, 0.0175], rpy_deg: [0, 0, -45], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "cylinder_turned": ("cylinder 70 mm across, 150 mm long, 5e4 N/m, turned 35°", 0.07, 60,
+                        "  - {type: cylinder, radius: 0.035, length: 0.15, position: [0, 0, 0.035], rpy_deg: [0, 0, 35], "
+                        "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
+    "box_big": ("box 130 × 110 × 45 mm, 2e5 N/m, turned −25°", 0.045, 10,
+                "  - {type: box, size: [0.13, 0.11, 0.045], position: [0, 0, 0.0225], rpy_deg: [0, 0, -25], "
+                "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
     "lumpy_soft": ("lumpy mesh 108 × 72 × 29 mm, soft (2e4 N/m), turned −50°", "lumpy_soft", 60,
                    "  - {type: mesh, path: lumpy_soft.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
                    "rpy_deg: [0, 0, -50], stiffness: 2.0e4, friction: 0.5}\n", 0.0),
@@ -61,7 +76,7 @@ OBJECTS = {
 #: The lumpy meshes: semi-axes (m) and seed of make_scan_stone.py's recipe.
 MESHES = {"lumpy_soft": ((0.054, 0.036, 0.028), 11), "lumpy_big": ((0.075, 0.05, 0.062), 3)}
 #: A scene with a goal of its own, as docs/exploration_scenes.py has for the shipped groove.
-COVERAGE_OF = {"unseen_groove_narrow": 0.90}
+COVERAGE_OF = {"unseen_groove_narrow": 0.90, "unseen_groove_shallow": 0.90}
 
 
 def _make_mesh(name: str, folder: Path) -> float:
