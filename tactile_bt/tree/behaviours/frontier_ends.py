@@ -43,8 +43,8 @@ _HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
 #: A joint held at its limit this recently (s) explains those ends.
 _HELD_S = 1.0
 #: The cause of such an end where the one joint held is the one that turns the pad about its
-#: normal (:class:`~tactile_bt.tree.blackboard.TurnRoom`): the arm reaches on with the pad turned
-#: back by a quarter turn or two, which senses the same, so it explains nothing; a re-approach
+#: normal (:class:`~tactile_bt.tree.blackboard.TurnRoom`), on a square pad: the arm reaches on with
+#: the pad turned back a quarter turn, which senses the same, so it explains nothing; a re-approach
 #: there turns the pad back (:mod:`tactile_bt.tree.behaviours.reapproach`).
 WRIST = "wrist"
 
@@ -114,7 +114,8 @@ class FrontierEnds:
         if cause in _HELD_CAUSES and self._held[0] and self.now - self._held[1] <= _HELD_S:
             joints = " and ".join(str(j) for j in self._held[0])
             room = turn_room()
-            if room is not None and self._held[0] == (room.joint,):  # only the pad's turn was stopped
+            w, h = self.pad.size_m
+            if room is not None and self._held[0] == (room.joint,) and math.isclose(w, h):  # only a turn stopped
                 why, cause = f"{why} with joint {joints} at its limit (the pad can turn back)", WRIST
             else:
                 why, cause = f"{why} with joint {joints} at its limit", "reach"

@@ -142,9 +142,11 @@ class Reapproach(TactileBehaviour):
         """``R`` (world), or ``R`` turned a quarter turn about the pad normal either way, which
         the square pad senses the same: the one that leaves the wrist the most room to turn
         the pad (:class:`~tactile_bt.tree.blackboard.TurnRoom`), where ``R`` would leave it less
-        than ``_UNWIND_BELOW_RAD`` the tighter way; ``R`` when the arm does not say."""
+        than ``_UNWIND_BELOW_RAD`` the tighter way; ``R`` when the arm does not say, or the pad
+        is not square."""
         room = turn_room()
-        if room is None:
+        w, h = self.pad.size_m
+        if room is None or not math.isclose(w, h):
             return R
         T = self.pose
 
