@@ -20,7 +20,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "EXPLAINING", "sector", "describe_left"]
+__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "WRIST", "EXPLAINING", "sector", "describe_left"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -30,12 +30,16 @@ SECTORS = 8
 OPEN = ""
 #: The reason of a frontier cell without a sample of its own (a gap between samples).
 GAP = "gap"
+#: The reason of a frontier cell where an attempt ended with the arm's wrist wound onto the limit
+#: of the joint that turns the pad about its normal: the arm's reach as the pad was turned, which
+#: a re-approach with the pad turned back a quarter turn may undo (see ``frontier_guidance``).
+WRIST = "wrist"
 #: Reasons of the frontier left that explain it (see :meth:`FrontierMap.classify`): the object's
 #: foot at the table, a surface steeper than the pad may tilt, a place the arm cannot reach (a
-#: re-approach found it so). Every other reason (an edge, a
-#: stall, a jump, a lost contact, a target not reached in time, or no attempt at all) leaves that
-#: frontier unexplained: the surface beyond may go on.
-EXPLAINING = frozenset({"table", "tilt", "reach", "valley"})
+#: re-approach found it so, or a joint held at its limit, the wrist's among them). Every other
+#: reason (an edge, a stall, a jump, a lost contact, a target not reached in time, or no attempt
+#: at all) leaves that frontier unexplained: the surface beyond may go on.
+EXPLAINING = frozenset({"table", "tilt", "reach", "valley", WRIST})
 #: The reason of a frontier cell where an attempt failed (a stall, a lost contact, ...) at the rim
 #: of a *valley*: an untouched hole in the touched area, enclosed by it and narrower than the pad
 #: (:meth:`FrontierMap.valleys`), which a flat pad bridges.

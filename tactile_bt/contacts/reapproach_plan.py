@@ -55,13 +55,16 @@ class ReapproachPlan:
         self.far: dict | None = None
 
     def choose(self, m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, reason: np.ndarray,
-               from_xy: np.ndarray, max_tilt_rad: float) -> dict | None:
-        """The re-approach of the unexplained frontier cell nearest to ``from_xy`` (world, m)
-        and not within ``radius_m`` of one tried before, from :meth:`FrontierMap.classify`'s
-        output; None when there is none. ``{"frontier_xy", "out", "probe": (point, normal),
-        "top_z"}`` (world, m). A far probe pending (:meth:`apply`) comes first, while its
-        frontier is still unexplained."""
-        keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
+               from_xy: np.ndarray, max_tilt_rad: float, reasons: frozenset | None = None) -> dict | None:
+        """The re-approach of the unexplained frontier cell (or, given ``reasons``, of a cell
+        with one of them) nearest to ``from_xy`` (world, m) and not within ``radius_m`` of one
+        tried before, from :meth:`FrontierMap.classify`'s output; None when there is none.
+        ``{"frontier_xy", "out", "probe": (point, normal), "top_z"}`` (world, m). A far probe
+        pending (:meth:`apply`) comes first, while its frontier is still unexplained."""
+        if reasons is None:
+            keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
+        else:
+            keep = np.isin(np.asarray(reason).astype(str), sorted(reasons))
         if self.far is not None:
             job, self.far = self.far, None
             near = np.linalg.norm(m.centre_of(rows, cols) - job["frontier_xy"], axis=1) <= m.cell_m

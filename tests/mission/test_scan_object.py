@@ -24,6 +24,7 @@ from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_cle
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.contacts.frontier_map import EXPLAINING
+from tactile_bt.contacts.frontier_map import WRIST
 from tactile_bt.tree.blackboard import JOINTS_HELD, POSE, TURN_ROOM, TurnRoom
 from scan_helpers import disc, ticks_until_done
 
@@ -654,8 +655,8 @@ WOUND = TurnRoom(7, 0.0, math.radians(340))  # joint 7 turns the pad about its n
 @pytest.mark.parametrize("held, room, cause", [((7,), None, "reach"), ((), None, "contact lost"),
                                                ((7,), WOUND, "wrist"), ((2, 7), WOUND, "reach")])
 def test_a_contact_lost_while_the_arm_holds_a_joint_at_its_limit_is_out_of_reach(held, room, cause):
-    """... unless the one joint held is the wrist's that turns the pad about its normal: the pad
-    turned back a quarter turn reaches on, so that explains nothing."""
+    """... of the arm as it is, or of its wrist wound onto the stop of the joint that turns the
+    pad about its normal (when that is the one joint held)."""
     leaf, h = planner_harness(disc(0.02), (0.015, 0.0))
     h.tick(make_features())
     assert leaf.target is not None
@@ -670,10 +671,25 @@ def test_a_contact_lost_while_the_arm_holds_a_joint_at_its_limit_is_out_of_reach
     left = leaf.frontier_left()
     if held:
         assert f"joint {' and '.join(map(str, held))} at its limit" in leaf.last_end
-    if cause == "reach":
-        assert left["explained"].get("reach", 0.0) > 0.0
+        assert left["explained"].get(cause, 0.0) > 0.0 and cause not in left["unexplained"]
     else:
-        assert not left["explained"] and left["unexplained"].get(cause, 0.0) > 0.0
+        assert not left["explained"]
+
+
+def test_when_the_coverage_falls_short_the_frontier_a_wound_wrist_stopped_is_re_approached(monkeypatch):
+    from tactile_bt.tree.behaviours import frontier_left
+
+    monkeypatch.setattr(frontier_left, "untouched_beyond", lambda *a, **k: 1e-3)  # 10 cm² taken to lie beyond
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach", min_coverage=0.95)
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):  # the wrist stopped every way out
+        leaf.map.block((0.0, 0.0), 0.03, (math.cos(angle), math.sin(angle)), cause=WRIST)
+    leaf.target = None
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and "the wrist stopped" in leaf.feedback_message
+    assert leaf.frontier_left()["explained"].get(WRIST, 0.0) > 0.0  # explained, but the coverage is short
+    point, _ = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]["probe"]
+    assert np.linalg.norm(point[:2]) > 0.03  # beyond the rim (20 mm)
 
 
 @pytest.mark.parametrize("unexplained, status", [({"edge": 0.05}, Status.FAILURE), ({}, Status.SUCCESS)])

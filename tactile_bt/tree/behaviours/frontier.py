@@ -373,7 +373,9 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                     left = describe_left(self.frontier_left())
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         untouched = self.untouched_where()
-                        if self._asked_sweep(point, f"{untouched}) ({counts})"):
+                        # the wrist's stops first: turned back, the pad reaches on there
+                        if self._asked_unwind(point, f"{untouched}) ({counts})") \
+                                or self._asked_sweep(point, f"{untouched}) ({counts})"):
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()

@@ -6,8 +6,9 @@ An attempt to reach a frontier ends when an end-of-surface leaf writes its end t
 ``table_clearance_m`` of the table, or when the target is not reached in time. The frontier the
 attempt was heading for is then *blocked* in that direction, with the end's cause (an arm holding
 a joint at its limit turns a stall, a lost contact or a late target into its reach; when that
-joint is the one that turns the pad about its normal, into a wrist wound up, which a
-re-approach turning the pad back undoes), and the pad
+joint alone, and it is the one that turns a square pad about its normal, into
+:data:`~tactile_bt.contacts.frontier_map.WRIST`, the reach of a wrist wound up, which a re-approach
+turning the pad back a quarter turn may undo), and the pad
 *backs off*, uphill and away from the way it went. A recovering ``table_clearance`` guard's alarm
 and an intervention of the supervisor end an attempt the same way, once per alarm.
 
@@ -21,6 +22,7 @@ import math
 import numpy as np
 from py_trees.common import Access
 
+from tactile_bt.contacts.frontier_map import WRIST
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, lowest_corner
 from tactile_bt.tree.blackboard import read_or, turn_room
@@ -42,11 +44,6 @@ _SINKING_M = 0.0005
 _HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
 #: A joint held at its limit this recently (s) explains those ends.
 _HELD_S = 1.0
-#: The cause of such an end where the one joint held is the one that turns the pad about its
-#: normal (:class:`~tactile_bt.tree.blackboard.TurnRoom`), on a square pad: the arm reaches on with
-#: the pad turned back a quarter turn, which senses the same, so it explains nothing; a re-approach
-#: there turns the pad back (:mod:`tactile_bt.tree.behaviours.reapproach`).
-WRIST = "wrist"
 
 
 class FrontierEnds:

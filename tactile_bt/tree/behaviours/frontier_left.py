@@ -27,7 +27,7 @@ import numpy as np
 from py_trees.common import Status
 
 from tactile_bt import defaults
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from tactile_bt.tree.blackboard import read_or, write
@@ -118,7 +118,7 @@ class FrontierLeft:
         valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
             if np.any(reason == VALLEY) else 0.0
         # the arm stopped the pad there, not the surface: it goes on (see untouched_beyond)
-        far = reason == "reach"
+        far = (reason == "reach") | (reason == WRIST)
         beyond = untouched_beyond(self.map, rows[far], cols[far], out[far], steep, self._cloud.points,
                                   defaults.COVERAGE_RADIUS_M, self.table_z_m)
         touched = self.map.touched_area()
@@ -163,7 +163,8 @@ class FrontierLeft:
         if self.valley_m2 > 0:
             where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
         if self.beyond_reach_m2 > 0:
-            where.append(f"{self.beyond_reach_m2 * 1e4:.1f} cm² beyond {self.left.get('reach', 0.0) * 1e3:.0f} mm of frontier "
+            reach = self.left.get("reach", 0.0) + self.left.get(WRIST, 0.0)
+            where.append(f"{self.beyond_reach_m2 * 1e4:.1f} cm² beyond {reach * 1e3:.0f} mm of frontier "
                          "the arm could not reach")
         return f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
 
@@ -171,13 +172,15 @@ class FrontierLeft:
         """Length (m) of the frontier left without an explaining reason."""
         return sum(v for k, v in self.left.items() if k not in EXPLAINING)
 
-    def _reapproach(self, point: np.ndarray) -> dict | None:
-        """Write a re-approach of the nearest unexplained frontier not tried before to
-        ``reapproach_key`` and return it; None when there is none to try."""
+    def _reapproach(self, point: np.ndarray, reasons: frozenset | None = None) -> dict | None:
+        """Write a re-approach of the nearest unexplained frontier (or frontier left for one of
+        ``reasons``) not tried before to ``reapproach_key`` and return it; None when there is
+        none to try."""
         if not self.reapproach_key or len(self.plan.tried) >= self.max_reapproaches:
             return None
         rows, cols, out, reason = self._classify()
-        job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad)
+        job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad,
+                               reasons)
         if job is None:
             return None
         job["home"] = (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())  # the pad as it lies now
@@ -207,6 +210,17 @@ class FrontierLeft:
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
         write(self.reapproach_key, job)
         return job
+
+    def _asked_unwind(self, point: np.ndarray, detail: str) -> bool:
+        """Ask for a re-approach of the nearest frontier a wound wrist stopped (:data:`WRIST`)
+        not tried before, which ``reapproach`` makes with the pad turned back a quarter turn, and
+        say so in the feedback message; False when there is none to ask for."""
+        job = self._reapproach(point, frozenset({WRIST}))
+        if job is None:
+            return False
+        x, y = job["frontier_xy"] * 1e3
+        self.feedback_message = f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm the wrist stopped: {detail}"
+        return True
 
     def _asked_sweep(self, point: np.ndarray, detail: str) -> bool:
         """Ask for a border sweep (:meth:`_sweep`) and say so in the feedback message; False
