@@ -373,9 +373,9 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                     left = describe_left(self.frontier_left())
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         untouched = self.untouched_where()
-                        # the wrist's stops first: turned back, the pad reaches on there
-                        if self._asked_unwind(point, f"{untouched}) ({counts})") \
-                                or self._asked_sweep(point, f"{untouched}) ({counts})"):
+                        # then what lies beyond the wrist's stops: turned back, the pad may reach on there
+                        if self._asked_sweep(point, f"{untouched}) ({counts})") \
+                                or self._asked_unwind(point, f"{untouched}) ({counts})"):
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()

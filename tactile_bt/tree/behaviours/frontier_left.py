@@ -52,6 +52,8 @@ class FrontierLeft:
     valley_m2 = 0.0
     #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
     beyond_reach_m2 = 0.0
+    #: The part of it beyond the frontier the wrist's stops explain (:data:`WRIST`).
+    beyond_wrist_m2 = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
     sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
@@ -121,6 +123,10 @@ class FrontierLeft:
         far = (reason == "reach") | (reason == WRIST)
         beyond = untouched_beyond(self.map, rows[far], cols[far], out[far], steep, self._cloud.points,
                                   defaults.COVERAGE_RADIUS_M, self.table_z_m)
+        wound = reason == WRIST  # of which beyond the wrist's stops (a re-approach turned back may reach it)
+        self.beyond_wrist_m2 = untouched_beyond(self.map, rows[wound], cols[wound], out[wound], steep,
+                                                self._cloud.points, defaults.COVERAGE_RADIUS_M, self.table_z_m) \
+            if np.any(wound) else 0.0
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below + valley + beyond) if touched > 0 else 0.0
         self.below_m2 = below
@@ -214,7 +220,10 @@ class FrontierLeft:
     def _asked_unwind(self, point: np.ndarray, detail: str) -> bool:
         """Ask for a re-approach of the nearest frontier a wound wrist stopped (:data:`WRIST`)
         not tried before, which ``reapproach`` makes with the pad turned back a quarter turn, and
-        say so in the feedback message; False when there is none to ask for."""
+        say so in the feedback message; False when there is none to ask for, or no surface is
+        estimated beyond it."""
+        if self.beyond_wrist_m2 <= 0:
+            return False
         job = self._reapproach(point, frozenset({WRIST}))
         if job is None:
             return False
