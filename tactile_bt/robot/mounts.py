@@ -107,6 +107,7 @@ class ArmMount(SimulatedRobot):
         # joint 7 turns the flange about its z: the pad about its normal when that lies along it
         along = float(kin.fk_flange(q0)[:3, 2] @ kin.fk(q0)[:3, 2])
         self._turn_sign = int(np.sign(along)) if abs(along) > _ALONG_COS else 0
+        self._q7_range = (float(kin.q_min[6]), float(kin.q_max[6]))  # read every cycle: no copies
 
     @property
     def pose(self) -> np.ndarray:
@@ -145,8 +146,8 @@ class ArmMount(SimulatedRobot):
         that axis."""
         if self._turn_sign == 0:
             return None
-        q, (q_min, q_max) = self.arm.q[6], self.limits
-        up, down = max(float(q_max[6] - q), 0.0), max(float(q - q_min[6]), 0.0)
+        q, (q_min, q_max) = float(self.arm.q[6]), self._q7_range
+        up, down = max(q_max - q, 0.0), max(q - q_min, 0.0)
         return (7, up, down) if self._turn_sign > 0 else (7, down, up)
 
     def joint_state(self) -> JointState:
