@@ -30,7 +30,7 @@ from tactile_bt.mission.outputs import prepare_output_dir, present_outputs
 from tactile_bt.mission.result import MissionResult, finish_mission
 from tactile_bt.mission.supervisor import Supervisor, SupervisorLimits
 from tactile_bt.mission.watch import MissionWatcher, finish_watchers, start_watchers
-from tactile_bt.tree.blackboard import TurnRoom, write_joints_held, write_turn_room
+from tactile_bt.tree.blackboard import write_joints_held, write_turn_room
 from tactile_bt.sim import warmup as kernel_build
 from tactile_bt.tree.behaviours.contact_points import RecordContacts
 
@@ -158,7 +158,7 @@ def run_mission(
     pad = scene.sensor.geometry
     table_z_m = _write_setup(scene)  # before the tree's setup, so that --blackboard can override it
     write_joints_held(None)  # nothing held yet (nor left from an earlier mission in this process)
-    write_turn_room(None)
+    write_turn_room(getattr(world.mount, "turn_room", None))  # read by the tree when it needs it
     loop = ControlLoop(tree, world.calibration, dt, orientation_method, threshold, pad=pad)
     contacts = loop.contacts
     supervisor = Supervisor(SupervisorLimits.for_tree(tree, scene.supervisor))
@@ -166,7 +166,6 @@ def run_mission(
     log = MissionLog(n_cycles)
     joints = getattr(world.mount, "joint_angles", None)
     arm_state = getattr(world.mount, "saturation", None)  # the arm: saturated joints, unrealised twist
-    room = getattr(world.mount, "turn_room", None)  # the wrist: how far the pad can turn about its normal
     if joints is not None:
         log.track_joints(len(joints()), getattr(world.mount, "limits", None))
     if node_status:
@@ -212,9 +211,6 @@ def run_mission(
                 log.write_joints(k, joints(), *state)
                 if state:
                     write_joints_held(state[0])  # what the tree sees of the arm next cycle
-                if room is not None:
-                    left = room()
-                    write_turn_room(None if left is None else TurnRoom(*left))
             for watcher in watchers:
                 watcher.cycle(k, t, loop, log)
             if progress is not None and k % progress_every == 0:

@@ -19,10 +19,12 @@ Two keys outside ``/tactile`` come from the arm, written after it has moved:
 - ``/robot/joints_held`` (:data:`JOINTS_HELD`), the joints (numbered from 1) the arm held at a
   position limit in the last cycle (:func:`write_joints_held`). A pad that stops following where
   the planner sends it is then out of the arm's reach, not at the end of the surface.
-- ``/robot/turn_room`` (:data:`TURN_ROOM`), a :class:`TurnRoom`: how far the pad can still turn
-  about its normal each way before the joint that turns it there (the wrist's last) reaches its
-  limit (:func:`write_turn_room`). A square pad turned by a quarter turn senses the same, so a
-  pad whose wrist is wound onto that limit can turn back and go on.
+- ``/robot/turn_room`` (:data:`TURN_ROOM`), written once at the start: the arm's function that
+  tells how far the pad can still turn about its normal each way before the joint that turns it
+  there (the wrist's last) reaches its limit (:func:`write_turn_room`; a leaf reads it as a
+  :class:`TurnRoom` with :func:`turn_room`, when it needs it, not every cycle). A square pad
+  turned by a quarter turn senses the same, so a pad whose wrist is wound onto that limit can
+  turn back and go on.
 
 Either is absent when the mount says nothing of its joints.
 
@@ -36,8 +38,9 @@ Layer: tree.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import py_trees
@@ -56,8 +59,8 @@ FEATURES, FEATURES_RAW, TIME, POSE, PAD = (f"{NAMESPACE}/{k}" for k in ("feature
 #: Blackboard key of the joints the arm held at a position limit in the last cycle (tuple of
 #: joint numbers from 1; absent: the mount does not say).
 JOINTS_HELD = "/robot/joints_held"
-#: Blackboard key of the room the wrist leaves the pad to turn about its normal (a :class:`TurnRoom`;
-#: absent or None: the mount does not say).
+#: Blackboard key of the arm's function telling the room the wrist leaves the pad to turn about its
+#: normal (see :func:`write_turn_room`; absent or None: the mount does not say).
 TURN_ROOM = "/robot/turn_room"
 _STORAGE = py_trees.blackboard.Blackboard.storage
 _NONE_HELD: tuple = ()
@@ -126,14 +129,21 @@ class TurnRoom:
         return min(self.positive_rad - turn_rad, self.negative_rad + turn_rad)
 
 
-def write_turn_room(room: TurnRoom | None) -> None:
-    """Put the wrist's :class:`TurnRoom` on :data:`TURN_ROOM` (None: the mount does not say)."""
+def write_turn_room(room: Callable[[], tuple[int, float, float] | None] | None) -> None:
+    """Put the arm's function ``room() -> (joint, about +z, about -z) | None`` (rad; as
+    :meth:`tactile_bt.robot.mounts.ArmMount.turn_room`) on :data:`TURN_ROOM`, once: it is
+    called when a leaf asks (None: the mount does not say)."""
     _STORAGE[TURN_ROOM] = room
 
 
-def turn_room() -> TurnRoom | None:
-    """The :class:`TurnRoom` the arm last wrote; None when the mount does not say."""
-    return _STORAGE.get(TURN_ROOM)
+def turn_room(pad: PadGeometry) -> TurnRoom | None:
+    """The wrist's :class:`TurnRoom` now; None when the arm does not say, or when ``pad`` is not
+    square: turned a quarter turn it would not sense the same."""
+    room = _STORAGE.get(TURN_ROOM)
+    if room is None or not math.isclose(*pad.size_m):
+        return None
+    left = room()
+    return None if left is None else TurnRoom(*left)
 
 
 def current_pad() -> PadGeometry:

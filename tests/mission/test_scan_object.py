@@ -23,9 +23,8 @@ from tactile_bt.tree.behaviours import (TactileBehaviour, Centre, CentreTo, Cove
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, pad_clearance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
-from tactile_bt.contacts.frontier_map import EXPLAINING
-from tactile_bt.contacts.frontier_map import WRIST
-from tactile_bt.tree.blackboard import JOINTS_HELD, POSE, TURN_ROOM, TurnRoom
+from tactile_bt.contacts.frontier_map import EXPLAINING, WRIST
+from tactile_bt.tree.blackboard import JOINTS_HELD, POSE, TURN_ROOM
 from scan_helpers import disc, ticks_until_done
 
 REPO = Path(__file__).resolve().parents[2]
@@ -649,7 +648,7 @@ def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_appl
     assert leaf.ends["re-approach: table"] == 1
 
 
-WOUND = TurnRoom(7, 0.0, math.radians(340))  # joint 7 turns the pad about its normal, and is on its limit
+WOUND = (7, 0.0, math.radians(340))  # the arm's turn room: joint 7 turns the pad about its normal, and is on its limit
 
 
 @pytest.mark.parametrize("held, room, cause", [((7,), None, "reach"), ((), None, "contact lost"),
@@ -661,7 +660,7 @@ def test_a_contact_lost_while_the_arm_holds_a_joint_at_its_limit_is_out_of_reach
     h.tick(make_features())
     assert leaf.target is not None
     h.set(JOINTS_HELD, held)  # what the mission writes after the arm moved
-    h.set(TURN_ROOM, room)
+    h.set(TURN_ROOM, None if room is None else lambda: room)  # what the mission writes at the start
     h.tick(make_features())
     h.set(JOINTS_HELD, ())
     h.tick(make_features(in_contact=False))  # the pad could not follow: the contact is lost

@@ -13,7 +13,6 @@ from scipy.spatial.transform import Rotation
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
 from tactile_bt.tree.behaviours import Reapproach
-from tactile_bt.tree.blackboard import TurnRoom
 
 DOWN = Rotation.from_euler("x", 180, degrees=True)
 DT = 1.0 / 250.0
@@ -74,7 +73,7 @@ def test_a_pad_whose_wrist_is_wound_near_its_limit_lands_turned_back_a_quarter_t
     turns = {}
     for negative_room in (math.radians(10), math.radians(170)):
         h = LeafHarness(Reapproach(), dt=DT, pose=start)
-        h.set("/robot/turn_room", TurnRoom(7, math.radians(330) - negative_room, negative_room))
+        h.set("/robot/turn_room", lambda room=negative_room: (7, math.radians(330) - room, room))
         job = {"probe": (probe, normal), "top_z": 0.03, "home": (start[:3, 3], normal)}
         h.set("/scan/reapproach", job)
         status, T = fly(h, lambda T: T[2, 3] <= probe[2] + 1e-4)

@@ -110,9 +110,8 @@ class FrontierEnds:
         cause = cause or why
         if cause in _HELD_CAUSES and self._held[0] and self.now - self._held[1] <= _HELD_S:
             joints = " and ".join(str(j) for j in self._held[0])
-            room = turn_room()
-            w, h = self.pad.size_m
-            if room is not None and self._held[0] == (room.joint,) and math.isclose(w, h):  # only a turn stopped
+            room = turn_room(self.pad)
+            if room is not None and self._held[0] == (room.joint,):  # only the pad's turn was stopped
                 why, cause = f"{why} with joint {joints} at its limit (the pad can turn back)", WRIST
             else:
                 why, cause = f"{why} with joint {joints} at its limit", "reach"

@@ -52,8 +52,6 @@ class FrontierLeft:
     valley_m2 = 0.0
     #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
     beyond_reach_m2 = 0.0
-    #: The part of it beyond the frontier the wrist's stops explain (:data:`WRIST`).
-    beyond_wrist_m2 = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
     sweeps: SweepPlan | None = None
     face_normals = np.zeros((0, 3))
@@ -123,10 +121,6 @@ class FrontierLeft:
         far = (reason == "reach") | (reason == WRIST)
         beyond = untouched_beyond(self.map, rows[far], cols[far], out[far], steep, self._cloud.points,
                                   defaults.COVERAGE_RADIUS_M, self.table_z_m)
-        wound = reason == WRIST  # of which beyond the wrist's stops (a re-approach turned back may reach it)
-        self.beyond_wrist_m2 = untouched_beyond(self.map, rows[wound], cols[wound], out[wound], steep,
-                                                self._cloud.points, defaults.COVERAGE_RADIUS_M, self.table_z_m) \
-            if np.any(wound) else 0.0
         touched = self.map.touched_area()
         self.coverage = touched / (touched + below + valley + beyond) if touched > 0 else 0.0
         self.below_m2 = below
@@ -222,7 +216,11 @@ class FrontierLeft:
         not tried before, which ``reapproach`` makes with the pad turned back a quarter turn, and
         say so in the feedback message; False when there is none to ask for, or no surface is
         estimated beyond it."""
-        if self.beyond_wrist_m2 <= 0:
+        rows, cols, out, reason = self._classify()
+        wound = reason == WRIST
+        if not np.any(wound) or untouched_beyond(self.map, rows[wound], cols[wound], out[wound],
+                                                 self.max_tilt_rad - self.tilt_margin_rad, self._cloud.points,
+                                                 defaults.COVERAGE_RADIUS_M, self.table_z_m) <= 0:
             return False
         job = self._reapproach(point, frozenset({WRIST}))
         if job is None:

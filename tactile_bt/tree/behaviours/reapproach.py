@@ -144,9 +144,8 @@ class Reapproach(TactileBehaviour):
         the pad (:class:`~tactile_bt.tree.blackboard.TurnRoom`), where ``R`` would leave it less
         than ``_UNWIND_BELOW_RAD`` the tighter way; ``R`` when the arm does not say, or the pad
         is not square."""
-        room = turn_room()
-        w, h = self.pad.size_m
-        if room is None or not math.isclose(w, h):
+        room = turn_room(self.pad)
+        if room is None:
             return R
         T = self.pose
 
