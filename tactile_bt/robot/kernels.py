@@ -17,8 +17,9 @@ The fast path and what it hands back
 * resolved rates (:func:`rates_fast`): the hybrid Jacobian, the null-space objective of
   :class:`~tactile_bt.robot.redundancy.LimitAvoidance`, the damped least-squares solve with its
   damping schedule (singular values by a one-sided Jacobi sweep, :func:`jacobi_svd`) and the
-  velocity scaling.  A step that would drive a joint past its limit needs the saturation loop:
-  that is handed back (``False``), and the Python solve does it;
+  velocity scaling.  A step that would drive a joint past its limit needs the saturation loop,
+  and one near a singularity (the damping on) the translation-first solve: those are handed back
+  (``False``), and the Python solve does them;
 * the implicit Euler step of the joint impedance against the contact (:func:`arm_step`):
   Newton with the contact's own stiffness ``K_x``, the per-iteration motion cap, the full step
   accepted when the energy's slope along it is small.  A step that needs the bracketing line
@@ -357,7 +358,8 @@ def rates_fast(q, twist, kin, arm, dt, damping, eps, out):
     Writes ``q_dot``, the damping, sigma_min, the speed scale, no saturated joint and the
     residual hybrid twist into ``out`` (the ``O_QD`` ... part of :func:`arm_step`'s output) and
     returns True; returns False, writing nothing, when a joint would pass its limit (the
-    saturation loop of the Python solve is needed).
+    saturation loop of the Python solve is needed) or the damping acts (its translation-first
+    solve is).
     """
     n = q.shape[0]
     T = np.empty((4, 4))
@@ -378,6 +380,8 @@ def rates_fast(q, twist, kin, arm, dt, damping, eps, out):
         limit_avoidance(q, kin, arm, null)
     qd = np.empty(n)
     lam, smin = dls_solve(J, Vh, damping, eps, null, use_null, arm[A_SPEED], qd)
+    if lam > 0.0:  # near a singularity: the Python solve makes the translation first
+        return False
     peak = 1.0
     for i in range(n):
         peak = max(peak, abs(qd[i]) / kin[K_QDMAX + i])

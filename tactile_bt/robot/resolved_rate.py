@@ -11,7 +11,12 @@ Method
 schedule (Chiaverini 1997; Maciejewski & Klein 1988; Nakamura & Hanafusa 1986 use the
 manipulability instead): ``lambda^2 = lambda_max^2 (1 - (sigma_min / eps)^2)`` when the smallest
 singular value ``sigma_min`` drops below ``eps``, 0 otherwise, so ``|q_dot| <= |V| / (2 lambda_max)``
-however close the arm is to a singularity.  Joint limits are handled by saturation in the
+however close the arm is to a singularity.  Where the damping acts, its weak direction mixes a
+slide of the pad with a turn (the wrist nearly straight, ``q6 ~ 0``, in some postures), and
+damping it would drop the two together: a roll the arm can hardly make became a slide of 0.3 m/s
+nobody asked for, and a retreat lost the slide that frees a corner from a wall.  There the
+translation rows, which stay well conditioned, are solved first and the turn as far as the joints
+then allow (:func:`translation_first`): what the damping drops is turn, never slide.  Joint limits are handled by saturation in the
 null space (after Flacco, De Luca & Khatib 2012, "SNS"): a joint that would leave its range in
 the next step is fixed at the velocity that just reaches the limit, and the remaining joints
 are re-solved for the rest of the twist, so a 7-DOF arm keeps the commanded Cartesian motion
@@ -178,6 +183,13 @@ class ResolvedRateMixin:
             hi = np.maximum((self.q_max - q) / dt, 0.0)
 
         qd, lam, smin = damped_least_squares(Jh, Vh, damping, sigma_threshold, null, null_speed_max)
+        if lam > 0.0:
+            # Near a singularity of all six rows (the wrist nearly straight, q6 ~ 0, in some
+            # postures): the weak direction mixes a slide with a turn, and damping it drops both
+            # together, which adds a slide nobody asked for (0.3 m/s for a 0.6 rad/s roll) or
+            # takes one away (a retreat that cannot leave a wall). The translation rows alone
+            # are well conditioned there: make the translation first, the turn as far as it goes.
+            qd = translation_first(Jh, Vh, damping, damping, sigma_threshold, null, null_speed_max)
         free = np.ones(7, dtype=bool)
         peak = self._speed_peak(qd) if velocity_limits else 1.0
         # Saturation in the null space: fix the worst offender at the velocity that reaches its

@@ -211,3 +211,50 @@ def test_with_joint_5_on_its_stop_a_retreat_is_made_at_full_speed():
     assert sol.scale > 0.99
     assert_allclose(sol.residual[:3], 0.0, atol=1e-9)
     assert np.linalg.norm(sol.residual[3:]) < 0.2  # rad/s: the pad turns a little as it backs off
+
+
+#: Postures of the ring scans with the wrist nearly straight (q6 of 1 to 3 deg) where the six rows
+#: of the Jacobian are nearly singular (smallest singular value 0.007 to 0.012 m/rad), no joint
+#: on a stop; the base of ``docs/unseen_scans.py``'s rings.
+_RING_BASE = make_pose(None, np.array([-0.472, 0.0, 0.191]))
+_NEAR_STRAIGHT_WRIST = {
+    "wide ring, a corner in its wall": np.array([-34.0, -95.2, 34.1, 88.0, 90.9, 1.5, -3.9]) * DEG,
+    "middle ring, bridging its hole": np.array([11.2, -83.7, -15.5, 88.7, -89.3, 2.8, -37.1]) * DEG,
+}
+
+
+@pytest.mark.parametrize("posture", sorted(_NEAR_STRAIGHT_WRIST))
+def test_near_a_singularity_a_retreat_leaves_the_wall_at_full_speed(posture):
+    """The supervisor's retreat (back along the normal, sliding away from a corner at the border)
+    near a singularity of all six rows: damping the weak direction, which mixes a slide with a
+    turn, dropped 25 of 45 mm/s of the slide that frees the corner, and the pad rose along the
+    ring's wall with the corner still 5 mm in it. The translation comes first and is made in full."""
+    arm_kin = LWR4Kinematics(base=_RING_BASE)
+    q = _NEAR_STRAIGHT_WRIST[posture]
+    T = arm_kin.fk(q)
+    retreat_s = np.array([0.044, 0.045, -0.05, 0.0, 0.0, 0.0])
+    sol = arm_kin.resolved_rate(q, body_to_spatial(T, retreat_s), dt=0.004, return_info=True)
+    assert sol.sigma_min < 0.02 and sol.damping > 0.0 and not sol.saturated.any()
+    assert sol.scale > 0.99
+    assert_allclose(sol.residual[:3], 0.0, atol=1e-9)
+    assert np.linalg.norm(sol.residual[3:]) < 0.2  # rad/s: the pad turns a little as it backs off
+
+
+@pytest.mark.parametrize("posture", sorted(_NEAR_STRAIGHT_WRIST))
+def test_near_a_singularity_a_roll_is_not_turned_into_a_slide(posture):
+    """A roll of 0.8 rad/s with a slow slide, near a singularity of all six rows: damping the weak
+    direction made a slide of the pad of up to 0.29 m/s nobody asked for (the middle ring's pad
+    swept 23 mm sideways in 0.13 s into the hole's wall). Now the slide is made as asked, and what
+    is dropped is turn, no more than the whole turn asked."""
+    arm_kin = LWR4Kinematics(base=_RING_BASE)
+    q = _NEAR_STRAIGHT_WRIST[posture]
+    T = arm_kin.fk(q)
+    servo_s = np.array([-0.021, -0.002, 0.01, 0.19, 0.79, -0.4])
+    V = body_to_spatial(T, servo_s)
+    sol = arm_kin.resolved_rate(q, V, dt=0.004, return_info=True)
+    assert sol.damping > 0.0 and not sol.saturated.any()
+    asked = T[:3, :3] @ servo_s[:3]  # the pad centre's velocity asked, base frame
+    made = asked - sol.residual[:3]
+    assert 0.3 < sol.scale <= 1.0
+    assert_allclose(made, sol.scale * asked, atol=1e-9)  # the slide asked, on its path (slowed by the speed limits)
+    assert np.linalg.norm(sol.residual[3:]) < np.linalg.norm(V[3:])
