@@ -79,7 +79,8 @@ class RateSolution:
     q_dot : (7,) ndarray
         Joint velocities in rad/s.
     damping : float
-        Damping ``lambda`` actually used (same unit as the hybrid Jacobian, m/rad).
+        Damping ``lambda`` of the six-row solve (same unit as the hybrid Jacobian, m/rad);
+        where it is above 0, the translation was made first (:func:`translation_first`).
     sigma_min : float
         Smallest singular value of the hybrid Jacobian at ``q``.
     saturated : (7,) ndarray of bool
@@ -262,7 +263,8 @@ def translation_first(rows: np.ndarray, V: np.ndarray, lam_max: float, lam_turn:
                       null_max: float | None = None) -> np.ndarray:
     """Joint velocities for the hybrid twist rows ``rows``, translation first, then rotation (the
     re-solve after a saturation, when fewer joints are left than rows or the twist is a pure
-    translation): the translation ``V[:3]`` as well as the joints can
+    translation; and the first solve wherever its damping acts, near a singularity): the
+    translation ``V[:3]`` as well as the joints can
     make it (:func:`damped_least_squares`), then the rotation ``V[3:]`` as far as it goes
     without disturbing the translation (in the null space of the translation rows), damped up
     to ``lam_turn`` (rad/rad) where the joints could make it only with large velocities.
