@@ -13,6 +13,7 @@ from numpy.testing import assert_allclose
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
+from tactile_bt import defaults
 from tactile_bt.control.spatial import exp_twist, make_pose
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.mission.loop import root_outcome, success_reason
@@ -116,13 +117,15 @@ class _Twist(TactileBehaviour):
         return Status.RUNNING
 
 
-def _braked_run(twist, start, seconds=2.0, **guard):
+def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), **guard):
     """A leaf adding ``twist`` and, after it, a braking guard; the pad moved by the cycle's twist
-    each tick. Returns the guard, the corner heights and the twists applied."""
+    (within the twist ``limits``, m/s and rad/s) each tick. Returns the guard, the corner heights
+    and the twists applied."""
     guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0, brake_s=0.2, **guard)
     root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
                                         children=[_Twist(twist), guard])
     h = LeafHarness(root, pose=start)
+    h.command.linear_limit, h.command.angular_limit = limits
     h.set(TABLE_Z_KEY, 0.0)
     heights, applied = [], []
     T = start
@@ -157,6 +160,21 @@ def test_the_brake_keeps_the_slide_and_lifts_what_the_translation_alone_would_lo
     world = applied[:, :3] @ R.T
     assert_allclose(world[:, :2], np.tile((R @ [0.01, 0.0, 0.01])[:2], (len(world), 1)), atol=1e-9)
     assert guard.trips == 0
+
+
+def test_the_brake_holds_while_the_slide_is_at_the_twist_limit():
+    # the servo's parts add up to a slide six times the linear limit (50 mm/s), backing off a
+    # little, while the pad rolls its corner down: the limits scale the whole translation, and
+    # its lift, which the brake had counted on against the roll, shrank with it while the roll
+    # did not (a narrow groove's scan put its corner onto the table so; here the guard failed,
+    # the pad touching the table). The corner stays above the brake's floor, and the slide goes on.
+    start = pose(tilted(20), (0.0, 0.0, 0.02))
+    limits = (defaults.TWIST_LINEAR_LIMIT_MPS, defaults.TWIST_ANGULAR_LIMIT_RPS)
+    guard, heights, applied = _braked_run((0.0, 0.3, -0.03, 0.0, -0.5, 0.0), start, seconds=1.0, limits=limits)
+    assert heights.min() >= 0.0005 + 0.001 - 1e-4
+    assert guard.trips == 0 and guard.braked
+    assert np.linalg.norm(applied[:, :3], axis=1).max() <= limits[0] + 1e-12  # within the limit as sent
+    assert np.linalg.norm(applied[-1, :3] @ start[:3, :3].T[:, :2]) > 0.02  # still sliding across
 
 
 def test_without_a_brake_the_same_roll_trips_the_guard():

@@ -23,6 +23,7 @@ import math
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt.control.servo import limit_twist
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours.base import TactileBehaviour
@@ -100,7 +101,11 @@ class TableClearance(TactileBehaviour):
     before it have summed (the guard belongs last in the tree), predicts where the pad's
     corners will be after ``brake_s`` at that twist, and where one would come below
     ``min_clearance_m + brake_margin_m`` it slows the turn down just enough that it does not,
-    and lifts the pad (world z) by what the translation alone would still lower it. A roll that
+    and lifts the pad (world z) by what the translation alone would still lower it. It reckons
+    with the twist as the command's limits will send it, and where the lift would take the
+    motion over the linear limit it slows the motion across the world's z instead: the limits
+    would otherwise scale the lift down with the slide (a pad sliding at the limit, 50 mm/s,
+    while it rolled its corner down onto the table). A roll that
     would swing a corner down onto the table at 1 rad/s then slows as the corner nears it, and
     the corner settles above the limit instead of tripping the guard; the pad's sliding goes
     on, and motions that lift the corners are never slowed.
@@ -193,7 +198,11 @@ class TableClearance(TactileBehaviour):
         """Slow the cycle's turn down, and lift the pad if its translation alone would still
         do it, so that no corner comes below the brake's floor within ``brake_s`` (see the
         class docstring)."""
-        twist = self.command.summed()
+        command = self.command
+        summed = command.summed()
+        # what the twist limits will send of it: a brake reckoned on the sum before them would
+        # see its lift scaled down with the slide when the slide is at the limit
+        twist = limit_twist(summed, command.linear_limit, command.angular_limit)
         v, w = twist[:3], twist[3:]
         pose = self.pose
         corners = pad_corners(self.pad, self.margin_m)
@@ -212,7 +221,15 @@ class TableClearance(TactileBehaviour):
         if lowering.any():
             scale = float(np.clip(np.min((a - floor_rate[lowering]) / -b[lowering]), 0.0, 1.0))
         lift = max(0.0, float(np.max(floor_rate - (a + scale * b))))  # what the translation still lowers
-        self.command.add(self.name, (*(up * lift), *((scale - 1.0) * w)))
+        # within the linear limit by slowing the motion across the world's z, never the lift:
+        # the sum sent is then this, which the limits leave as it is
+        rise = a + lift
+        across = v - a * up
+        room = math.sqrt(max(command.linear_limit ** 2 - rise * rise, 0.0))
+        norm = float(np.linalg.norm(across))
+        k = min(1.0, room / norm) if norm > 0.0 else 1.0
+        sent = np.concatenate((k * across + rise * up, scale * w))
+        command.add(self.name, tuple((sent - summed).tolist()))
 
     def describe(self) -> str:
         """The clearance of the pad's lowest corner at the last tick, and the trips."""
