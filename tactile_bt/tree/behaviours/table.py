@@ -23,7 +23,6 @@ import math
 import numpy as np
 from py_trees.common import Access, Status
 
-from tactile_bt.control.servo import limit_twist
 from tactile_bt.errors import BlackboardReferenceError
 from tactile_bt.sense.geometry import PadGeometry
 from tactile_bt.tree.behaviours.base import TactileBehaviour
@@ -199,10 +198,9 @@ class TableClearance(TactileBehaviour):
         do it, so that no corner comes below the brake's floor within ``brake_s`` (see the
         class docstring)."""
         command = self.command
-        summed = command.summed()
-        # what the twist limits will send of it: a brake reckoned on the sum before them would
-        # see its lift scaled down with the slide when the slide is at the limit
-        twist = limit_twist(summed, command.linear_limit, command.angular_limit)
+        # the sum as the twist limits will send it: a brake reckoned on the sum before them
+        # would see its lift scaled down with the slide when the slide is at the limit
+        twist = command.twist()
         v, w = twist[:3], twist[3:]
         pose = self.pose
         corners = pad_corners(self.pad, self.margin_m)
@@ -229,7 +227,7 @@ class TableClearance(TactileBehaviour):
         norm = float(np.linalg.norm(across))
         k = min(1.0, room / norm) if norm > 0.0 else 1.0
         sent = np.concatenate((k * across + rise * up, scale * w))
-        command.add(self.name, tuple((sent - summed).tolist()))
+        command.add(self.name, tuple((sent - command.summed()).tolist()))
 
     def describe(self) -> str:
         """The clearance of the pad's lowest corner at the last tick, and the trips."""
