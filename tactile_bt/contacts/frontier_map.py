@@ -20,7 +20,8 @@ import math
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "WRIST", "EXPLAINING", "sector", "describe_left"]
+__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "HOLE", "WRIST", "EXPLAINING", "sector",
+           "describe_left"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -39,11 +40,15 @@ WRIST = "wrist"
 #: re-approach found it so, or a joint held at its limit, the wrist's among them). Every other
 #: reason (an edge, a stall, a jump, a lost contact, a target not reached in time, or no attempt
 #: at all) leaves that frontier unexplained: the surface beyond may go on.
-EXPLAINING = frozenset({"table", "tilt", "reach", "valley", WRIST})
+EXPLAINING = frozenset({"table", "tilt", "reach", "valley", "hole", WRIST})
 #: The reason of a frontier cell where an attempt failed (a stall, a lost contact, ...) at the rim
 #: of a *valley*: an untouched hole in the touched area, enclosed by it and narrower than the pad
 #: (:meth:`FrontierMap.valleys`), which a flat pad bridges.
 VALLEY = "valley"
+#: The reason of a frontier cell next to cells seen :attr:`~FrontierMap.empty` (no surface above
+#: the table there: a pad's border or corner went down near the table touching nothing): the rim
+#: of a hole, beyond which the surface falls away out of the pad's reach.
+HOLE = "hole"
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
@@ -278,7 +283,8 @@ class FrontierMap:
         foot; "tilt" where the touched surface is tilted more than ``max_tilt_rad`` from the
         vertical; the cause of the block in the outward direction where an attempt to cross it
         has failed, or :data:`VALLEY` where that attempt faced a hole of the touched area at most
-        ``valley_m`` across (:meth:`valleys`; 0: none); :data:`GAP` in the cells that count as
+        ``valley_m`` across (:meth:`valleys`; 0: none); :data:`HOLE` where it is not explained
+        otherwise and lies next to cells seen :attr:`empty`; :data:`GAP` in the cells that count as
         touched without a sample of their own (between samples, see :attr:`touched`);
         :data:`OPEN` ("") where the frontier is still to be crossed."""
         rows, cols, out = self.frontier()
@@ -294,6 +300,10 @@ class FrontierMap:
             facing = rim[rows, cols] & blocked  # a neighbour of the cell lies in the valley
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[facing & failed] = VALLEY
+        if self.empty.any():
+            opened = ndimage.binary_dilation(self.empty, structure=np.ones((3, 3), dtype=bool))[rows, cols]
+            failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
+            reason[opened & failed] = HOLE
         reason[self.tilt(rows, cols) > max_tilt_rad] = "tilt"
         if math.isfinite(table_z_m):
             reason[self.z_max[rows, cols] <= table_z_m + table_clearance_m] = "table"

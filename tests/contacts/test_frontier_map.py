@@ -6,7 +6,7 @@ import math
 import numpy as np
 import numpy.testing as npt
 
-from tactile_bt.contacts.frontier_map import GAP, OPEN, FrontierMap
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, HOLE, OPEN, FrontierMap
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from scan_helpers import disc
 
@@ -249,3 +249,21 @@ def test_a_channel_the_pad_was_seen_to_bridge_is_a_valley_but_not_the_untouched_
     assert not m.valleys(0.08).any()
     # contacts too close together mark nothing
     assert m.mark_bridged(np.zeros(3), np.array([0.008, 0.0, 0.0]), half_width_m=0.01) == 0
+
+
+def test_the_rim_of_a_valley_seen_empty_is_a_hole_and_explained():
+    # the dent of the test above, stalled round; a probe then finds it open down to the table
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)
+    pts, normals = disc(0.03, step=0.0005)
+    hollow = np.linalg.norm(pts[:, :2] - (0.01, 0.0), axis=1) < 0.006
+    m.add(pts[~hollow], normals[~hollow])
+    for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):
+        m.block((0.01, 0.0), 0.01, (math.cos(angle), math.sin(angle)), cause="stall")
+    m.mark_empty(m.centre_of(*np.nonzero(m.valleys(0.08))))
+    assert not m.valleys(0.08).any()  # no surface left in it to count
+    rows, cols, out, reason = m.classify(math.radians(60), valley_m=0.08)
+    near = np.linalg.norm(m.centre_of(rows, cols) - (0.01, 0.0), axis=1) < 0.01
+    assert np.all((reason[near] == HOLE) | (reason[near] == GAP)) and np.sum(reason[near] == HOLE) > 10
+    assert HOLE in EXPLAINING
+    outer = np.linalg.norm(m.centre_of(rows, cols), axis=1) > 0.026
+    assert set(reason[outer]) <= {OPEN, GAP}  # the outer rim is no hole's

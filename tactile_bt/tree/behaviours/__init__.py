@@ -23,6 +23,7 @@ from tactile_bt.tree.behaviours.surface_end import (ContactBridged, ContactJumpe
 from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
 from tactile_bt.tree.behaviours.border_sweep import BorderSweep
+from tactile_bt.tree.behaviours.hole_probe import HoleProbe
 from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
@@ -54,6 +55,7 @@ LEAVES = {
     "frontier_guidance": FrontierGuidance,
     "reapproach": Reapproach,
     "border_sweep": BorderSweep,
+    "hole_probe": HoleProbe,
     "table_clearance": TableClearance,
     "table_offset": TableOffset,
     "centre_to": CentreTo,
@@ -102,6 +104,7 @@ __all__ = [
     "FrontierGuidance",
     "Reapproach",
     "BorderSweep",
+    "HoleProbe",
     "TableClearance",
     "TableOffset",
     "CentreTo",

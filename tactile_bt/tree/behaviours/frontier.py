@@ -175,6 +175,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         self.face_z = np.zeros(0)
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
+        self._probed = []  # the valleys probed with the pad's corner (their centres, world xy, m)
         self._state = "waiting for contact"
         self._reset_motion()
 
@@ -206,6 +207,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
             self.map, self._map_cloud, self._seen = None, cloud, 0
             self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
             self.sweeps = None
+            self._probed = []
         n = len(cloud)
         if n > self._seen:
             if self.map is None:
@@ -374,7 +376,10 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         untouched = self.untouched_where()
                         # then what lies beyond the wrist's stops: turned back, the pad may reach on there
+                        # sweeps first: they touch what they can of a valley's sides, which a probe
+                        # finding the valley open takes out of the estimate
                         if self._asked_sweep(point, f"{untouched}) ({counts})") \
+                                or self._asked_probe(point, f"{untouched}) ({counts})") \
                                 or self._asked_unwind(point, f"{untouched}) ({counts})"):
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"

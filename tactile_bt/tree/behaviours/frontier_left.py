@@ -28,6 +28,7 @@ from py_trees.common import Status
 
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST
+from tactile_bt.contacts.hole_probe import corner_first, probe_points
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from tactile_bt.tree.blackboard import read_or, write
@@ -38,6 +39,12 @@ __all__ = ["FrontierLeft", "FRONTIER_LEFT_KEY"]
 
 #: Holes in the touched area up to this many times the pad's width across are swept with its border.
 _SWEPT_HOLES = 2.0
+#: A valley is probed at most at this many points, and not again within this distance (m) of
+#: one probed before; the probe keeps every part of the pad this far (m) above the touched
+#: surface.
+_HOLE_POINTS = 5
+_HOLE_AGAIN_M = 0.02
+_HOLE_CLEARANCE_M = 0.002
 #: A far probe's pad lies this far (m) beyond the frontier at its nearest corner.
 _FAR_M = 0.003
 #: Blackboard key of the frontier left (see :meth:`FrontierLeft.frontier_left`).
@@ -50,6 +57,8 @@ class FrontierLeft:
     contact cloud ``_cloud`` and its table and tilt settings)."""
 
     valley_m2 = 0.0
+    #: Centres (world xy, m) of the valleys probed so far.
+    _probed: list
     #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
     beyond_reach_m2 = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
@@ -87,6 +96,18 @@ class FrontierLeft:
                                "``min_coverage`` and nothing else is left, the leaf writes a sweep of the nearest run "
                                "of foot, or else side of a valley, not swept before to ``reapproach_key`` "
                                "(``{\"sweep\": ...}``, for ``border_sweep``) and FAILS, as for a re-approach.")
+    max_hole_probes = Parameter(0, bound=NON_NEGATIVE, unit=None,
+                                doc="Most valleys probed with the pad's corner in one scan (0: none). When a valley "
+                                    "narrower than the pad keeps the estimated coverage under ``min_coverage`` and "
+                                    "nothing else is left, the leaf writes a probe of the nearest valley not probed "
+                                    "before to ``reapproach_key`` (``{\"hole\": ...}``, for ``hole_probe``) and FAILS, "
+                                    "as for a re-approach, once no sweep is left to ask for.")
+    hole_floor_m = Parameter(0.02, bound=NON_NEGATIVE,
+                             doc="A valley whose probes all lowered the pad's corner to within this height (m) of "
+                                 "the table touching nothing is a hole (the table seen through a ring): its cells "
+                                 "are marked empty, its area leaves the estimate and its rim's frontier is "
+                                 "explained (``hole``). A floor lower than this in a hollow narrower than the pad "
+                                 "is taken for the table.")
     foot_height_m = Parameter(0.002, bound=POSITIVE,
                               doc="Height (m) above the table of the level pad sweeping a face's foot: its border "
                                   "touches the face this high.")
@@ -211,6 +232,46 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
+    def _probe_hole(self, point: np.ndarray) -> dict | None:
+        """Write a probe of the nearest valley not probed before (see ``max_hole_probes``) to
+        ``reapproach_key`` and return it; None when there is none (or probes are off)."""
+        if not self.reapproach_key or self.map is None or len(self._probed) >= self.max_hole_probes \
+                or not math.isfinite(self.table_z_m):
+            return None
+        valleys = probe_points(self.map, self.map.valleys(min(self.pad.size_m)), _HOLE_POINTS)
+        valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - c) > _HOLE_AGAIN_M for c in self._probed)]
+        if not valleys:
+            return None
+        valley = min(valleys, key=lambda v: float(np.linalg.norm(v["centre"] - point[:2])))
+        self._probed.append(valley["centre"])
+        floor = self.table_z_m + self.table_clearance_m
+        probes, near = [], self.pose[:3, :3]
+        deep = self.table_z_m + self.hole_floor_m
+        for xy in valley["points"]:  # each pose deep enough turned as little as it can be from the one before
+            pose = corner_first(self.map, xy, self.pad.size_m, self.max_tilt_rad, _HOLE_CLEARANCE_M, floor, near,
+                                deep_enough_z=deep - _HOLE_CLEARANCE_M)
+            if pose is not None and pose[1] <= deep:
+                probes.append((xy, pose[0], pose[1]))
+                near = pose[0]
+        if len(probes) < len(valley["points"]):
+            return None  # the corner cannot go deep enough everywhere: the probe could not tell
+        job = {"hole": {"probes": probes, "cells": valley["cells"], "centre": valley["centre"]},
+               "top_z": float(np.nanmax(self.map.z_max)),
+               "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
+        write(self.reapproach_key, job)
+        return job
+
+    def _asked_probe(self, point: np.ndarray, detail: str) -> bool:
+        """Ask for a probe of a valley (:meth:`_probe_hole`) and say so in the feedback
+        message; False when there is none to ask for."""
+        job = self._probe_hole(point)
+        if job is None:
+            return False
+        x, y = job["hole"]["centre"] * 1e3
+        self.feedback_message = (f"probing the valley at ({x:.0f}, {y:.0f}) mm with the pad's corner at "
+                                 f"{len(job['hole']['probes'])} points: {detail}")
+        return True
+
     def _asked_unwind(self, point: np.ndarray, detail: str) -> bool:
         """Ask for a re-approach of the nearest frontier a wound wrist stopped (:data:`WRIST`)
         not tried before, which ``reapproach`` makes with the pad turned back a quarter turn, and
@@ -254,6 +315,11 @@ class FrontierLeft:
         if self.map is None or not isinstance(job, dict) or "result" not in job or job.get("applied"):
             return
         job["applied"] = True
+        if "hole" in job:
+            if job["result"] == "open":  # the table seen through it: no surface to scan there
+                self.map.mark_empty(job["hole"]["cells"])
+            self.ends[f"hole probe: {job['result']}"] += 1
+            return
         if "sweep" in job:
             if job.get("empty"):  # where the border went down to the table touching nothing
                 self.map.mark_empty(np.vstack(job["empty"]))

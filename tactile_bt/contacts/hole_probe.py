@@ -1,0 +1,135 @@
+"""Probes into a valley the flat pad bridges: where to lower the pad's corner, and how.
+
+A flat pad bridges a hollow narrower than itself (a valley,
+:meth:`~tactile_bt.contacts.frontier_map.FrontierMap.valleys`) and cannot tell whether it holds
+surface it left untouched (a bowl's floor) or only the table seen through it (a ring's hole).
+Tilted steeply, corner first, the pad reaches down into it: a corner that comes near the table
+touching nothing at points spread over the valley finds it open there. :func:`probe_points`
+spreads such points over each valley, and :func:`corner_first` finds the tilted pose that
+lowers the corner furthest at a point without any part of the pad coming near the touched
+surface. Pure geometry: no time, no robot, no tree.
+
+Layer: contacts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+
+__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn"]
+
+#: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
+_YAWS = np.radians(np.arange(0.0, 360.0, 15.0))
+_TILT_STEPS = np.radians([0.0, 10.0, 20.0])
+#: Spacing (m) of the points of the pad checked against the touched surface.
+_PAD_STEP_M = 0.004
+
+
+def probe_points(m, mask: np.ndarray, most: int = 5, min_valley_m2: float = 2e-4) -> list[dict]:
+    """Points to probe in each valley of ``mask`` (``(n, n)`` bool over the grid of the map
+    ``m``) of at least ``min_valley_m2`` (m²): the cell farthest from the touched area, then up
+    to ``most - 1`` cells about half as far from it, each as far from the others as can be.
+
+    Returns one dict per valley: ``centre`` (world xy, m), ``points`` ``(k, 2)`` (world xy, m)
+    and ``cells`` ``(j, 2)``, the world xy (m) of every cell of the valley."""
+    labels, n = ndimage.label(mask)
+    out = []
+    for k in range(1, n + 1):
+        valley = labels == k
+        if np.count_nonzero(valley) * m.cell_m ** 2 < min_valley_m2:
+            continue
+        depth = ndimage.distance_transform_edt(valley)
+        rows, cols = np.nonzero(valley)
+        d = depth[rows, cols]
+        chosen = [int(np.argmax(d))]
+        ring = np.flatnonzero(np.abs(d - 0.5 * d.max()) <= max(1.0, 0.15 * d.max()))
+        while len(chosen) < most and len(ring):
+            gap = np.min(np.hypot(rows[ring, None] - rows[chosen], cols[ring, None] - cols[chosen]), axis=1)
+            best = int(np.argmax(gap))
+            if gap[best] < 2.0:
+                break
+            chosen.append(int(ring[best]))
+        xy = m.centre_of(rows, cols)
+        # the others in turn round the first, from beyond the widest gap between them: the pad
+        # tilts towards the middle from each, and turns the least from one to the next
+        around = np.arctan2(*(xy[chosen[1:]] - xy[chosen[0]]).T[::-1])
+        order = np.argsort(around)
+        if len(order) > 1:
+            gaps = np.diff(np.concatenate((around[order], [around[order][0] + 2 * math.pi])))
+            order = np.roll(order, -(int(np.argmax(gaps)) + 1))
+        chosen = [chosen[0]] + [chosen[1 + int(k)] for k in order]
+        out.append({"centre": xy[chosen[0]], "points": xy[chosen], "cells": xy})
+    return out
+
+
+def pad_rotation(size_m: tuple[float, float], yaw: float, tilt: float) -> np.ndarray:
+    """The rotation (world, 3×3) of a pad ``size_m`` (m) lowered corner first: its diagonal
+    from the corner at sensor ``(-w/2, -h/2)`` rising at ``tilt`` (rad) from the table plane
+    towards the world xy direction ``yaw`` (rad), its other diagonal level and its sensor z
+    (into the surface) pointing down."""
+    w, h = size_m
+    level = np.diag([1.0, -1.0, -1.0])  # sensor z down; the diagonal lies along world (w, -h)
+    turn = Rotation.from_euler("z", yaw - math.atan2(-h, w)).as_matrix() @ level
+    d = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    hinge = np.cross([0.0, 0.0, 1.0], d)  # about it, a negative angle raises the diagonal's far end
+    return Rotation.from_rotvec(-tilt * hinge).as_matrix() @ turn
+
+
+def least_turn(R: np.ndarray, current: np.ndarray, size_m: tuple[float, float]) -> np.ndarray:
+    """``R`` (world, 3×3), or ``R`` turned about the pad's normal by the quarter turns (half
+    turns for a pad that is not square) under which the pad lies the same: the one nearest
+    ``current``, so that probe after probe the wrist does not wind up."""
+    w, h = size_m
+    step = math.pi / 2 if abs(w - h) < 1e-9 else math.pi
+    turns = [R @ Rotation.from_rotvec([0.0, 0.0, k * step]).as_matrix() for k in range(int(round(2 * math.pi / step)))]
+    return min(turns, key=lambda Rk: float(np.linalg.norm(Rotation.from_matrix(Rk @ current.T).as_rotvec())))
+
+
+def lowest_corner_local(R: np.ndarray, size_m: tuple[float, float]) -> np.ndarray:
+    """The pad's corner (sensor frame, m) lowest in the world at rotation ``R``."""
+    w, h = size_m
+    corners = np.array([[sx * 0.5 * w, sy * 0.5 * h, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
+    return corners[int(np.argmin((corners @ R.T)[:, 2]))]
+
+
+def corner_first(m, xy: np.ndarray, size_m: tuple[float, float], max_tilt_rad: float, clearance_m: float,
+                 floor_z: float, near: np.ndarray | None = None, slack_m: float = 0.003,
+                 deep_enough_z: float = -math.inf) -> tuple[np.ndarray, float] | None:
+    """The pose that lowers the pad's corner furthest at world ``xy`` (m) with every part of
+    the pad at least ``clearance_m`` above the touched surface (the map ``m``'s highest sample
+    per cell) and the corner no lower than ``floor_z`` (world z, m): ``(R, corner_z)``, the
+    pad's rotation and the corner's height; None when no pose keeps the corner below the
+    touched surface's highest point. Given the rotation ``near`` (world, 3×3), of the poses that
+    lower the corner within ``slack_m`` of the furthest, or to ``deep_enough_z`` (world z, m)
+    or below, the one that turns the pad least from it (:func:`least_turn`), turned so."""
+    w, h = size_m
+    u, v = np.meshgrid(np.arange(0.0, w + 1e-9, _PAD_STEP_M), np.arange(0.0, h + 1e-9, _PAD_STEP_M))
+    local = np.column_stack((u.ravel() - 0.5 * w, v.ravel() - 0.5 * h, np.zeros(u.size)))
+    corner = np.array([-0.5 * w, -0.5 * h, 0.0])
+    heights = np.where(m.count > 0, m.z_max, -np.inf)
+    top = float(np.max(heights))
+    found = []
+    for tilt in max_tilt_rad - _TILT_STEPS:
+        if tilt <= 0:
+            continue
+        for yaw in _YAWS:
+            R = pad_rotation(size_m, float(yaw), float(tilt))
+            offset = (local - corner) @ R.T  # from the corner
+            rc = m.cell_of(np.asarray(xy)[None, :2] + offset[:, :2])
+            inside = np.all((rc >= 0) & (rc < m.n), axis=1)
+            under = np.full(len(offset), -np.inf)
+            under[inside] = heights[rc[inside, 0], rc[inside, 1]]
+            z = max(float(np.max(under + clearance_m - offset[:, 2])), floor_z)
+            if z < top:
+                found.append((R, z))
+    if not found:
+        return None
+    lowest = min(z for _, z in found)
+    if near is None:
+        return next((R, z) for R, z in found if z == lowest)
+    turned = [(least_turn(R, near, size_m), z) for R, z in found if z <= max(lowest + slack_m, deep_enough_z)]
+    return min(turned, key=lambda rz: float(np.linalg.norm(Rotation.from_matrix(rz[0] @ near.T).as_rotvec())))

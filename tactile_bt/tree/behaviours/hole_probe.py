@@ -1,0 +1,143 @@
+"""Lower the pad's corner into a valley the flat pad bridges, to tell a hole from a bowl.
+
+A flat pad bridges a hollow narrower than itself and leaves it untouched: a bowl's floor that
+is surface to scan, or the table seen through a ring. The frontier planner
+(``frontier_guidance: {max_hole_probes: ...}``) then writes a probe of the valley to the
+re-approach key, ``{"hole": {"probes": [(xy, R, corner_z), ...], "cells": xy}, "top_z": z,
+"home": (point, normal)}`` (world, m; from :mod:`tactile_bt.contacts.hole_probe`): points spread
+over the valley, each with the tilted pose that lowers the pad's corner furthest there without
+any part of the pad coming near the touched surface, and the height the corner may go down to.
+
+The ``hole_probe`` leaf lifts the pad off, rises above everything touched, moves over each point
+in turn with the pad tilted corner first (turned a quarter turn about its normal, which the
+square pad senses the same, where the arm's wrist would otherwise be wound near its limit, as
+``reapproach`` does) and lowers it straight down, holding its orientation,
+until the corner reaches its height (the valley is open there: on to the next point), the pad
+touches (the valley holds surface: ``"result": "touched"``, with the point under ``"touched"``)
+or the arm stops it (on to the next point). It writes each point's outcome under
+``"outcomes"`` and the corner's lowest heights under ``"reached"``, and ``"result": "open"``
+when the pad touched nowhere and the arm got it to every point but one at most (``reach``
+otherwise). Then it goes back to the touched point it left, as
+``reapproach`` does; exploring goes on from there.
+
+It belongs beside ``reapproach`` and ``border_sweep`` in the sequence before ``touch``: each
+leaf carries out its own kind of job and lets the other pass.
+
+Layer: tree.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from py_trees.common import Status
+from scipy.spatial.transform import Rotation
+
+from tactile_bt.contacts.hole_probe import lowest_corner_local
+from tactile_bt.tree.behaviours.reapproach import Reapproach
+from tactile_bt.tree.behaviours.table import lowest_corner
+from tactile_bt.tree.blackboard import read_or
+
+__all__ = ["HoleProbe"]
+
+#: Gains (1/s) of the place and orientation held while lowering.
+_K_HOLD = 5.0
+_K_TURN = 3.0
+#: The corner has reached its height within this distance (m).
+_AT_M = 0.0005
+#: Lowering that comes no nearer by a millimetre for this long (s) is stopped by the arm.
+_STUCK_S = 1.0
+#: A valley is open when the pad touched at none of its points and the arm got it to all but
+#: at most this many (a wrist wound near its limit by the turns from one point to the next).
+_UNREACHED = 1
+
+
+class HoleProbe(Reapproach):
+    """Carry out the probe of a valley pending on ``key``, if any (see the module docstring);
+    SUCCESS at once without one."""
+
+    def initialise(self) -> None:
+        super().initialise()  # a re-approach job is reapproach's; this leaf passes it by
+        job = read_or(self.key)
+        self._job = job if isinstance(job, dict) and "hole" in job and "result" not in job else None
+        self._lowering = False
+        if self._job is not None:
+            self._job["reached"], self._job["outcomes"] = [], []
+            self._probe = 0
+            self._start_probe()
+
+    def describe(self) -> str:
+        if self._job is not None and self._lowering and not self._going_home:
+            return f"lowering the corner into the valley, point {self._probe + 1} of {len(self._probes())}"
+        return super().describe()
+
+    def _probes(self) -> list:
+        return self._job["hole"]["probes"]
+
+    def _start_probe(self) -> None:
+        """Route to above the current point, the pad tilted corner first."""
+        xy, R, corner_z = self._probes()[self._probe]
+        self._R = self._unwound(np.asarray(R, dtype=float))  # a quarter turn back where the wrist is wound
+        self._corner = np.array([xy[0], xy[1], corner_z])
+        offset = self._R @ lowest_corner_local(self._R, self.pad.size_m)
+        top_z = float(self._job.get("top_z", corner_z))
+        start = self._corner - offset
+        start[2] += max(top_z + self.clearance_m - corner_z, 0.0)  # the corner above everything touched
+        self._going_home = False
+        self._lowering = False
+        self._route(start, self._R, top_z)
+        self._low = (math.inf, self.now)
+
+    def _finish(self, result: str) -> None:
+        """Note the corner's height and the point's outcome; on to the next point unless the
+        pad touched. At the end: ``open`` when every point was open but at most
+        ``_UNREACHED`` the arm could not get to, ``reach`` when it could not get to more."""
+        if not self._going_home and self._job is not None and "hole" in self._job:
+            self._job["reached"].append(float(lowest_corner(self.pose, self.pad)[2]))
+            self._job["outcomes"].append(result)
+            if result != "touched" and self._probe + 1 < len(self._probes()):
+                self._probe += 1
+                self._start_probe()
+                return
+            self._lowering = False
+            if result != "touched":
+                result = "open" if self._job["outcomes"].count("reach") <= _UNREACHED else "reach"
+        super()._finish(result)
+
+    def update(self) -> Status:
+        if self._verdict or self._job is None or self._going_home or self._done:
+            return super().update()
+        self._feedback = None
+        f = self.features
+        touching = f.in_contact and f.pressure >= self.pressure_pa
+        if self._waypoints:
+            self._next_waypoint(touching, "touched")
+            return Status.RUNNING
+        self._lowering = True
+        self._phase = "lowering the corner"
+        corner = lowest_corner(self.pose, self.pad)
+        if touching:
+            self._note_touch()
+            self._finish("touched")
+        elif corner[2] <= self._corner[2] + _AT_M or self._corner_at_table():
+            self._finish("open")
+        else:
+            if corner[2] < self._low[0] - 1e-3:
+                self._low = (float(corner[2]), self.now)
+            if self.now - self._low[1] > _STUCK_S:
+                self._finish("reach")
+            else:
+                self._lower(corner)
+        return Status.RUNNING
+
+    def _lower(self, corner: np.ndarray) -> None:
+        """Command the pad straight down at ``approach_speed_mps``, the corner held over its
+        point and the pad's orientation held."""
+        T = self.pose
+        error = self._corner - corner
+        v = _K_HOLD * np.array([error[0], error[1], 0.0])
+        v[2] = -min(self.approach_speed_mps, _K_HOLD * max(-error[2], 0.0) + 1e-3)
+        w = _K_TURN * Rotation.from_matrix(self._R @ T[:3, :3].T).as_rotvec()
+        Rt = T[:3, :3].T
+        self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))

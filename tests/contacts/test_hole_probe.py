@@ -1,0 +1,102 @@
+"""Probes into a valley the flat pad bridges: points spread over it, and the corner-first pose
+that lowers the pad's corner furthest without coming near the touched surface (contacts layer,
+pure geometry)."""
+
+import math
+
+import numpy as np
+import numpy.testing as npt
+
+from tactile_bt.contacts.frontier_map import FrontierMap
+from scipy.spatial.transform import Rotation
+
+from tactile_bt.contacts.hole_probe import corner_first, least_turn, lowest_corner_local, pad_rotation, probe_points
+
+PAD = (0.08, 0.08)
+
+
+def ring_map(rng, inner_m=0.035, outer_m=0.085, top_m=0.05, tube_m=0.025):
+    """A map of the upper side of a ring lying on the table (a torus, tube ``tube_m`` around a
+    circle halfway between ``inner_m`` and ``outer_m`` from its axis), touched where it is
+    tilted less than 55°: what a flat pad bridging its hole reaches."""
+    major = 0.5 * (inner_m + outer_m)
+    a = rng.uniform(0.0, 2 * math.pi, 60000)
+    b = rng.uniform(-math.radians(55), math.radians(55), 60000)  # from the top of the tube
+    r = major + tube_m * np.sin(b)
+    z = top_m - tube_m + tube_m * np.cos(b)
+    pts = np.column_stack((r * np.cos(a), r * np.sin(a), z))
+    normals = np.column_stack((np.sin(b) * np.cos(a), np.sin(b) * np.sin(a), np.cos(b)))
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.12)
+    m.add(pts, normals)
+    return m, major - tube_m * math.sin(math.radians(55))
+
+
+def test_the_points_of_a_ring_s_hole_start_at_its_middle_and_spread_inside_it():
+    m, rim = ring_map(np.random.default_rng(1))
+    valleys = probe_points(m, m.valleys(min(PAD)), most=5)
+    assert len(valleys) == 1
+    v = valleys[0]
+    assert np.linalg.norm(v["centre"]) < 0.004                          # the middle first
+    npt.assert_allclose(v["points"][0], v["centre"])
+    r = np.linalg.norm(v["points"], axis=1)
+    assert len(r) == 5 and np.all(r < rim)                               # every point inside the hole
+    assert np.all((r[1:] > 0.3 * rim) & (r[1:] < 0.7 * rim))             # the others about halfway out
+    gaps = np.linalg.norm(v["points"][:, None] - v["points"][None], axis=-1) + np.eye(5)
+    assert gaps.min() > 0.01                                             # spread apart
+    assert np.all(np.linalg.norm(v["cells"], axis=1) < rim + 0.003)     # the valley's cells: the hole
+
+
+def test_a_corner_first_pose_has_its_corner_lowest_its_diagonal_rising_and_its_face_down():
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        yaw, tilt = rng.uniform(0, 2 * math.pi), rng.uniform(0.2, 1.3)
+        R = pad_rotation(PAD, yaw, tilt)
+        npt.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+        corners = np.array([[sx * 0.04, sy * 0.04, 0.0] for sx in (-1, 1) for sy in (-1, 1)]) @ R.T
+        assert np.argmin(corners[:, 2]) == 0                                # the corner at (-w/2, -h/2)
+        d = corners[3] - corners[0]
+        npt.assert_allclose(math.atan2(d[2], math.hypot(d[0], d[1])), tilt, atol=1e-9)
+        npt.assert_allclose(math.atan2(d[1], d[0]) % (2 * math.pi), yaw % (2 * math.pi), atol=1e-9)
+        assert R[2, 2] < 0                                                  # sensor z down
+
+
+def test_the_corner_goes_deep_into_a_ring_s_hole_with_the_pad_clear_of_everything_touched():
+    m, rim = ring_map(np.random.default_rng(3))
+    clearance, floor = 0.002, 0.003
+    for xy in (np.zeros(2), np.array([0.012, -0.008])):
+        R, z = corner_first(m, xy, PAD, math.radians(70), clearance, floor)
+        assert floor <= z < 0.025                           # half-way down a 50 mm ring, or deeper
+        assert math.acos(-R[2, 2]) <= math.radians(70) + 1e-9
+        u, v = np.meshgrid(np.linspace(-0.04, 0.04, 41), np.linspace(-0.04, 0.04, 41))
+        local = np.column_stack((u.ravel() + 0.04, v.ravel() + 0.04, np.zeros(u.size)))
+        pad = local @ R.T + np.array([xy[0], xy[1], z])     # the pad, its corner at the point
+        rc = m.cell_of(pad[:, :2])
+        under = m.z_max[rc[:, 0], rc[:, 1]]
+        touched = m.count[rc[:, 0], rc[:, 1]] > 0
+        assert np.all(pad[touched, 2] >= under[touched] + clearance - 0.0015)  # within a check step
+
+
+def test_no_corner_first_pose_where_the_touched_surface_is_everywhere():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.1)
+    x, y = (a.ravel() for a in np.meshgrid(np.arange(-0.09, 0.09, 0.001), np.arange(-0.09, 0.09, 0.001)))
+    m.add(np.column_stack((x, y, np.full_like(x, 0.03))), np.tile([0.0, 0.0, 1.0], (len(x), 1)))
+    assert corner_first(m, np.zeros(2), PAD, math.radians(70), 0.002, 0.0) is None  # a plane: nothing below it
+
+
+def test_the_least_turn_lies_the_same_and_is_the_nearest_to_the_pad():
+    rng = np.random.default_rng(4)
+    corners = np.array([[sx * 0.04, sy * 0.04, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
+    for _ in range(10):
+        R = pad_rotation(PAD, rng.uniform(0, 2 * math.pi), rng.uniform(0.3, 1.2))
+        current = Rotation.from_euler("xz", [math.pi, rng.uniform(0, 2 * math.pi)]).as_matrix()  # a level pad
+        Rk = least_turn(R, current, PAD)
+        npt.assert_allclose(Rk[:, 2], R[:, 2], atol=1e-12)                        # the same normal
+        a, b = corners @ R.T, corners @ Rk.T
+        assert np.all(np.min(np.linalg.norm(a[:, None] - b[None], axis=-1), axis=1) < 1e-12)  # the same corners
+        npt.assert_allclose(lowest_corner_local(Rk, PAD) @ Rk.T, a[np.argmin(a[:, 2])], atol=1e-12)
+        # of the four ways the square pad lies so, the nearest to the pad as it is
+        def angle(A):
+            return np.linalg.norm(Rotation.from_matrix(A @ current.T).as_rotvec())
+
+        quarters = [R @ Rotation.from_rotvec([0.0, 0.0, k * math.pi / 2]).as_matrix() for k in range(4)]
+        assert angle(Rk) <= min(angle(Q) for Q in quarters) + 1e-12
