@@ -283,8 +283,8 @@ class FrontierMap:
         foot; "tilt" where the touched surface is tilted more than ``max_tilt_rad`` from the
         vertical; the cause of the block in the outward direction where an attempt to cross it
         has failed, or :data:`VALLEY` where that attempt faced a hole of the touched area at most
-        ``valley_m`` across (:meth:`valleys`; 0: none); :data:`HOLE` where it is not explained
-        otherwise and lies next to cells seen :attr:`empty`; :data:`GAP` in the cells that count as
+        ``valley_m`` across (:meth:`valleys`; 0: none); :data:`HOLE` where that attempt (not
+        explained otherwise) faced cells seen :attr:`empty` and still untouched; :data:`GAP` in the cells that count as
         touched without a sample of their own (between samples, see :attr:`touched`);
         :data:`OPEN` ("") where the frontier is still to be crossed."""
         rows, cols, out = self.frontier()
@@ -300,8 +300,9 @@ class FrontierMap:
             facing = rim[rows, cols] & blocked  # a neighbour of the cell lies in the valley
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[facing & failed] = VALLEY
-        if self.empty.any():
-            opened = ndimage.binary_dilation(self.empty, structure=np.ones((3, 3), dtype=bool))[rows, cols]
+        if self.empty.any() and blocked.any():
+            seen = self.empty & ~self.touched
+            opened = ndimage.binary_dilation(seen, structure=np.ones((3, 3), dtype=bool))[rows, cols] & blocked
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[opened & failed] = HOLE
         reason[self.tilt(rows, cols) > max_tilt_rad] = "tilt"

@@ -5,7 +5,7 @@ A flat pad bridges a hollow narrower than itself (a valley,
 surface it left untouched (a bowl's floor) or only the table seen through it (a ring's hole).
 Tilted steeply, corner first, the pad reaches down into it: a corner that comes near the table
 touching nothing at points spread over the valley finds it open there. :func:`probe_points`
-spreads such points over each valley, and :func:`corner_first` finds the tilted pose that
+spreads such points over each valley (its middle, and a ring 6 mm inside its edge), and :func:`corner_first` finds the tilted pose that
 lowers the corner furthest at a point without any part of the pad coming near the touched
 surface. Pure geometry: no time, no robot, no tree.
 
@@ -20,7 +20,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn"]
+__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "lowest_corner_local"]
 
 #: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
 _YAWS = np.radians(np.arange(0.0, 360.0, 15.0))
@@ -29,24 +29,30 @@ _TILT_STEPS = np.radians([0.0, 10.0, 20.0])
 _PAD_STEP_M = 0.004
 
 
-def probe_points(m, mask: np.ndarray, most: int = 5, min_valley_m2: float = 2e-4) -> list[dict]:
+def probe_points(m, mask: np.ndarray, most: int = 5, inside_m: float = 0.006, rim_m: float = 0.004,
+                 min_valley_m2: float = 2e-4) -> list[dict]:
     """Points to probe in each valley of ``mask`` (``(n, n)`` bool over the grid of the map
     ``m``) of at least ``min_valley_m2`` (m²): the cell farthest from the touched area, then up
-    to ``most - 1`` cells about half as far from it, each as far from the others as can be.
+    to ``most - 1`` cells ``inside_m`` (m) inside the valley's edge (or half as far as the
+    first, if less), each as far from the others as can be, in turn round the first.
 
-    Returns one dict per valley: ``centre`` (world xy, m), ``points`` ``(k, 2)`` (world xy, m)
-    and ``cells`` ``(j, 2)``, the world xy (m) of every cell of the valley."""
+    Returns one dict per valley: ``centre`` (world xy, m), ``points`` ``(k, 2)`` (world xy, m),
+    ``cells`` ``(j, 2)``, the world xy (m) of the valley's cells farther than ``rim_m`` from its
+    edge (those a probe open at every point marks empty; the band along the rim, where the wall
+    under a rim may be, stays the valley's), and ``area_m2``, the valley's area."""
     labels, n = ndimage.label(mask)
     out = []
     for k in range(1, n + 1):
         valley = labels == k
-        if np.count_nonzero(valley) * m.cell_m ** 2 < min_valley_m2:
+        area = float(np.count_nonzero(valley)) * m.cell_m ** 2
+        if area < min_valley_m2:
             continue
         depth = ndimage.distance_transform_edt(valley)
         rows, cols = np.nonzero(valley)
         d = depth[rows, cols]
         chosen = [int(np.argmax(d))]
-        ring = np.flatnonzero(np.abs(d - 0.5 * d.max()) <= max(1.0, 0.15 * d.max()))
+        ring_depth = min(inside_m / m.cell_m, 0.5 * d.max())
+        ring = np.flatnonzero(np.abs(d - ring_depth) <= 0.75)
         while len(chosen) < most and len(ring):
             gap = np.min(np.hypot(rows[ring, None] - rows[chosen], cols[ring, None] - cols[chosen]), axis=1)
             best = int(np.argmax(gap))
@@ -61,8 +67,9 @@ def probe_points(m, mask: np.ndarray, most: int = 5, min_valley_m2: float = 2e-4
         if len(order) > 1:
             gaps = np.diff(np.concatenate((around[order], [around[order][0] + 2 * math.pi])))
             order = np.roll(order, -(int(np.argmax(gaps)) + 1))
-        chosen = [chosen[0]] + [chosen[1 + int(k)] for k in order]
-        out.append({"centre": xy[chosen[0]], "points": xy[chosen], "cells": xy})
+        chosen = [chosen[0]] + [chosen[1 + int(j)] for j in order]
+        out.append({"centre": xy[chosen[0]], "points": xy[chosen], "cells": xy[d * m.cell_m > rim_m],
+                    "area_m2": area})
     return out
 
 
@@ -97,15 +104,15 @@ def lowest_corner_local(R: np.ndarray, size_m: tuple[float, float]) -> np.ndarra
 
 
 def corner_first(m, xy: np.ndarray, size_m: tuple[float, float], max_tilt_rad: float, clearance_m: float,
-                 floor_z: float, near: np.ndarray | None = None, slack_m: float = 0.003,
-                 deep_enough_z: float = -math.inf) -> tuple[np.ndarray, float] | None:
+                 floor_z: float, near: np.ndarray | None = None, deep_enough_z: float = -math.inf
+                 ) -> tuple[np.ndarray, float] | None:
     """The pose that lowers the pad's corner furthest at world ``xy`` (m) with every part of
     the pad at least ``clearance_m`` above the touched surface (the map ``m``'s highest sample
     per cell) and the corner no lower than ``floor_z`` (world z, m): ``(R, corner_z)``, the
     pad's rotation and the corner's height; None when no pose keeps the corner below the
     touched surface's highest point. Given the rotation ``near`` (world, 3×3), of the poses that
-    lower the corner within ``slack_m`` of the furthest, or to ``deep_enough_z`` (world z, m)
-    or below, the one that turns the pad least from it (:func:`least_turn`), turned so."""
+    lower the corner as far, or to ``deep_enough_z`` (world z, m) or below, the one that turns
+    the pad least from it (:func:`least_turn`), turned so."""
     w, h = size_m
     u, v = np.meshgrid(np.arange(0.0, w + 1e-9, _PAD_STEP_M), np.arange(0.0, h + 1e-9, _PAD_STEP_M))
     local = np.column_stack((u.ravel() - 0.5 * w, v.ravel() - 0.5 * h, np.zeros(u.size)))
@@ -131,5 +138,5 @@ def corner_first(m, xy: np.ndarray, size_m: tuple[float, float], max_tilt_rad: f
     lowest = min(z for _, z in found)
     if near is None:
         return next((R, z) for R, z in found if z == lowest)
-    turned = [(least_turn(R, near, size_m), z) for R, z in found if z <= max(lowest + slack_m, deep_enough_z)]
+    turned = [(least_turn(R, near, size_m), z) for R, z in found if z <= max(lowest, deep_enough_z)]
     return min(turned, key=lambda rz: float(np.linalg.norm(Rotation.from_matrix(rz[0] @ near.T).as_rotvec())))

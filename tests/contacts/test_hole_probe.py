@@ -39,11 +39,15 @@ def test_the_points_of_a_ring_s_hole_start_at_its_middle_and_spread_inside_it():
     assert np.linalg.norm(v["centre"]) < 0.004                          # the middle first
     npt.assert_allclose(v["points"][0], v["centre"])
     r = np.linalg.norm(v["points"], axis=1)
+    edge = np.max(np.linalg.norm(m.centre_of(*np.nonzero(m.valleys(min(PAD)))), axis=1))  # the valley's edge
     assert len(r) == 5 and np.all(r < rim)                               # every point inside the hole
-    assert np.all((r[1:] > 0.3 * rim) & (r[1:] < 0.7 * rim))             # the others about halfway out
+    assert np.all(np.abs(r[1:] - (edge - 0.006)) < 0.004)                # the others 6 mm inside its edge
     gaps = np.linalg.norm(v["points"][:, None] - v["points"][None], axis=-1) + np.eye(5)
-    assert gaps.min() > 0.01                                             # spread apart
-    assert np.all(np.linalg.norm(v["cells"], axis=1) < rim + 0.003)     # the valley's cells: the hole
+    assert gaps.min() > 0.02                                             # spread round it
+    turn = np.diff(np.unwrap(np.arctan2(v["points"][1:, 1], v["points"][1:, 0])))
+    assert np.all(turn > 0) or np.all(turn < 0)                          # visited in turn round the middle
+    cells = np.linalg.norm(v["cells"], axis=1)                           # marked empty if open: not the rim's band
+    assert np.all(cells < edge - 0.003) and v["area_m2"] > math.pi * (edge - 0.004) ** 2
 
 
 def test_a_corner_first_pose_has_its_corner_lowest_its_diagonal_rising_and_its_face_down():

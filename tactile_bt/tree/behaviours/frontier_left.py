@@ -45,6 +45,9 @@ _SWEPT_HOLES = 2.0
 _HOLE_POINTS = 5
 _HOLE_AGAIN_M = 0.02
 _HOLE_CLEARANCE_M = 0.002
+#: Where the corner cannot go deep enough at a point, the points tried instead, as fractions of
+#: the way from it to the valley's middle.
+_HOLE_INWARDS = (0.0, 0.15, 0.3, 0.45)
 #: A far probe's pad lies this far (m) beyond the frontier at its nearest corner.
 _FAR_M = 0.003
 #: Blackboard key of the frontier left (see :meth:`FrontierLeft.frontier_left`).
@@ -58,7 +61,7 @@ class FrontierLeft:
 
     valley_m2 = 0.0
     #: Centres (world xy, m) of the valleys probed so far.
-    _probed: list
+    _probed: list = []
     #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
     beyond_reach_m2 = 0.0
     #: The border sweeps of the scan (:class:`SweepPlan`), made at the first.
@@ -103,11 +106,11 @@ class FrontierLeft:
                                     "before to ``reapproach_key`` (``{\"hole\": ...}``, for ``hole_probe``) and FAILS, "
                                     "as for a re-approach, once no sweep is left to ask for.")
     hole_floor_m = Parameter(0.02, bound=NON_NEGATIVE,
-                             doc="A valley whose probes all lowered the pad's corner to within this height (m) of "
-                                 "the table touching nothing is a hole (the table seen through a ring): its cells "
-                                 "are marked empty, its area leaves the estimate and its rim's frontier is "
-                                 "explained (``hole``). A floor lower than this in a hollow narrower than the pad "
-                                 "is taken for the table.")
+                             doc="A valley whose probes lowered the pad's corner to within this height (m) of the "
+                                 "table touching nothing, at its middle and at points 6 mm inside its edge, is a "
+                                 "hole (the table seen through a ring): its cells farther than 4 mm from its edge "
+                                 "are marked empty and leave the estimate; the band along its rim stays counted. A "
+                                 "floor lower than this in a hollow narrower than the pad is taken for the table.")
     foot_height_m = Parameter(0.002, bound=POSITIVE,
                               doc="Height (m) above the table of the level pad sweeping a face's foot: its border "
                                   "touches the face this high.")
@@ -236,25 +239,28 @@ class FrontierLeft:
         """Write a probe of the nearest valley not probed before (see ``max_hole_probes``) to
         ``reapproach_key`` and return it; None when there is none (or probes are off)."""
         if not self.reapproach_key or self.map is None or len(self._probed) >= self.max_hole_probes \
-                or not math.isfinite(self.table_z_m):
+                or not math.isfinite(self.table_z_m) or self.valley_m2 <= 0:
             return None
         valleys = probe_points(self.map, self.map.valleys(min(self.pad.size_m)), _HOLE_POINTS)
         valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - c) > _HOLE_AGAIN_M for c in self._probed)]
         if not valleys:
             return None
         valley = min(valleys, key=lambda v: float(np.linalg.norm(v["centre"] - point[:2])))
-        self._probed.append(valley["centre"])
         floor = self.table_z_m + self.table_clearance_m
         probes, near = [], self.pose[:3, :3]
         deep = self.table_z_m + self.hole_floor_m
-        for xy in valley["points"]:  # each pose deep enough turned as little as it can be from the one before
-            pose = corner_first(self.map, xy, self.pad.size_m, self.max_tilt_rad, _HOLE_CLEARANCE_M, floor, near,
-                                deep_enough_z=deep - _HOLE_CLEARANCE_M)
-            if pose is not None and pose[1] <= deep:
-                probes.append((xy, pose[0], pose[1]))
-                near = pose[0]
+        for point_xy in valley["points"]:  # each pose deep enough turned as little as it can be from the one before
+            for inwards in _HOLE_INWARDS:  # where the corner cannot go deep enough, a little nearer the middle
+                xy = point_xy + inwards * (valley["centre"] - point_xy)
+                pose = corner_first(self.map, xy, self.pad.size_m, self.max_tilt_rad, _HOLE_CLEARANCE_M, floor, near,
+                                    deep_enough_z=deep - _HOLE_CLEARANCE_M)
+                if pose is not None and pose[1] <= deep:
+                    probes.append((xy, pose[0], pose[1]))
+                    near = pose[0]
+                    break
         if len(probes) < len(valley["points"]):
             return None  # the corner cannot go deep enough everywhere: the probe could not tell
+        self._probed.append(valley["centre"])
         job = {"hole": {"probes": probes, "cells": valley["cells"], "centre": valley["centre"]},
                "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}

@@ -4,7 +4,8 @@ A flat pad bridges a hollow narrower than itself and leaves it untouched: a bowl
 is surface to scan, or the table seen through a ring. The frontier planner
 (``frontier_guidance: {max_hole_probes: ...}``) then writes a probe of the valley to the
 re-approach key, ``{"hole": {"probes": [(xy, R, corner_z), ...], "cells": xy}, "top_z": z,
-"home": (point, normal)}`` (world, m; from :mod:`tactile_bt.contacts.hole_probe`): points spread
+"home": (point, normal)}`` (world, m; from :mod:`tactile_bt.contacts.hole_probe`; ``cells``:
+the valley's cells a probe found open marks empty): points spread
 over the valley, each with the tilted pose that lowers the pad's corner furthest there without
 any part of the pad coming near the touched surface, and the height the corner may go down to.
 
@@ -13,11 +14,12 @@ in turn with the pad tilted corner first (turned a quarter turn about its normal
 square pad senses the same, where the arm's wrist would otherwise be wound near its limit, as
 ``reapproach`` does) and lowers it straight down, holding its orientation,
 until the corner reaches its height (the valley is open there: on to the next point), the pad
-touches (the valley holds surface: ``"result": "touched"``, with the point under ``"touched"``)
+touches, or comes into contact at all while lowering (the valley holds surface: ``"result":
+"touched"``, with the point under ``"touched"``)
 or the arm stops it (on to the next point). It writes each point's outcome under
 ``"outcomes"`` and the corner's lowest heights under ``"reached"``, and ``"result": "open"``
-when the pad touched nowhere and the arm got it to every point but one at most (``reach``
-otherwise). Then it goes back to the touched point it left, as
+when the pad touched nowhere and the arm got it to every point but one at most, and to two at
+least (``reach`` otherwise). Then it goes back to the touched point it left, as
 ``reapproach`` does; exploring goes on from there.
 
 It belongs beside ``reapproach`` and ``border_sweep`` in the sequence before ``touch``: each
@@ -45,11 +47,12 @@ __all__ = ["HoleProbe"]
 _K_HOLD = 5.0
 _K_TURN = 3.0
 #: The corner has reached its height within this distance (m).
-_AT_M = 0.0005
+_DEPTH_M = 0.0005
 #: Lowering that comes no nearer by a millimetre for this long (s) is stopped by the arm.
 _STUCK_S = 1.0
 #: A valley is open when the pad touched at none of its points and the arm got it to all but
-#: at most this many (a wrist wound near its limit by the turns from one point to the next).
+#: at most this many (a wrist wound near its limit by the turns from one point to the next), and
+#: to two at least.
 _UNREACHED = 1
 
 
@@ -102,12 +105,16 @@ class HoleProbe(Reapproach):
                 return
             self._lowering = False
             if result != "touched":
-                result = "open" if self._job["outcomes"].count("reach") <= _UNREACHED else "reach"
+                opened = self._job["outcomes"].count("open")
+                result = "open" if opened >= max(2, len(self._probes()) - _UNREACHED) else "reach"
         super()._finish(result)
 
     def update(self) -> Status:
         if self._verdict or self._job is None or self._going_home or self._done:
-            return super().update()
+            status = super().update()
+            if self._done and self._job is not None:
+                self.feedback_message = f"hole probe: {self._job.get('result', '')}"
+            return status
         self._feedback = None
         f = self.features
         touching = f.in_contact and f.pressure >= self.pressure_pa
@@ -117,10 +124,10 @@ class HoleProbe(Reapproach):
         self._lowering = True
         self._phase = "lowering the corner"
         corner = lowest_corner(self.pose, self.pad)
-        if touching:
+        if f.in_contact:  # lowering, any contact is surface: the valley is not open there
             self._note_touch()
             self._finish("touched")
-        elif corner[2] <= self._corner[2] + _AT_M or self._corner_at_table():
+        elif corner[2] <= self._corner[2] + _DEPTH_M or self._corner_at_table():
             self._finish("open")
         else:
             if corner[2] < self._low[0] - 1e-3:
