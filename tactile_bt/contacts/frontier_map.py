@@ -45,9 +45,10 @@ EXPLAINING = frozenset({"table", "tilt", "reach", "valley", "hole", WRIST})
 #: of a *valley*: an untouched hole in the touched area, enclosed by it and narrower than the pad
 #: (:meth:`FrontierMap.valleys`), which a flat pad bridges.
 VALLEY = "valley"
-#: The reason of a frontier cell next to cells seen :attr:`~FrontierMap.empty` (no surface above
-#: the table there: a pad's border or corner went down near the table touching nothing): the rim
-#: of a hole, beyond which the surface falls away out of the pad's reach.
+#: The reason of a frontier cell where an attempt failed facing cells seen
+#: :attr:`~FrontierMap.empty` and still untouched (no surface above the table there: a pad's border
+#: or corner went down near the table touching nothing): the rim of a hole, beyond which the
+#: surface falls away out of the pad's reach.
 HOLE = "hole"
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
@@ -284,8 +285,9 @@ class FrontierMap:
         vertical; the cause of the block in the outward direction where an attempt to cross it
         has failed, or :data:`VALLEY` where that attempt faced a hole of the touched area at most
         ``valley_m`` across (:meth:`valleys`; 0: none); :data:`HOLE` where that attempt (not
-        explained otherwise) faced cells seen :attr:`empty` and still untouched; :data:`GAP` in the cells that count as
-        touched without a sample of their own (between samples, see :attr:`touched`);
+        explained otherwise) faced cells seen :attr:`empty` and still untouched; :data:`GAP` in
+        the cells that count as touched without a sample of their own (between samples, see
+        :attr:`touched`);
         :data:`OPEN` ("") where the frontier is still to be crossed."""
         rows, cols, out = self.frontier()
         reason = np.full(len(rows), OPEN, dtype=object)

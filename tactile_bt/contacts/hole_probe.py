@@ -20,7 +20,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "lowest_corner_local"]
+__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn"]
 
 #: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
 _YAWS = np.radians(np.arange(0.0, 360.0, 15.0))
@@ -94,13 +94,6 @@ def least_turn(R: np.ndarray, current: np.ndarray, size_m: tuple[float, float]) 
     step = math.pi / 2 if abs(w - h) < 1e-9 else math.pi
     turns = [R @ Rotation.from_rotvec([0.0, 0.0, k * step]).as_matrix() for k in range(int(round(2 * math.pi / step)))]
     return min(turns, key=lambda Rk: float(np.linalg.norm(Rotation.from_matrix(Rk @ current.T).as_rotvec())))
-
-
-def lowest_corner_local(R: np.ndarray, size_m: tuple[float, float]) -> np.ndarray:
-    """The pad's corner (sensor frame, m) lowest in the world at rotation ``R``."""
-    w, h = size_m
-    corners = np.array([[sx * 0.5 * w, sy * 0.5 * h, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
-    return corners[int(np.argmin((corners @ R.T)[:, 2]))]
 
 
 def corner_first(m, xy: np.ndarray, size_m: tuple[float, float], max_tilt_rad: float, clearance_m: float,

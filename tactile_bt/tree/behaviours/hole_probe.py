@@ -36,7 +36,7 @@ import numpy as np
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.contacts.hole_probe import lowest_corner_local
+from tactile_bt.control.spatial import make_pose
 from tactile_bt.tree.behaviours.reapproach import Reapproach
 from tactile_bt.tree.behaviours.table import lowest_corner
 from tactile_bt.tree.blackboard import read_or
@@ -83,7 +83,7 @@ class HoleProbe(Reapproach):
         xy, R, corner_z = self._probes()[self._probe]
         self._R = self._unwound(np.asarray(R, dtype=float))  # a quarter turn back where the wrist is wound
         self._corner = np.array([xy[0], xy[1], corner_z])
-        offset = self._R @ lowest_corner_local(self._R, self.pad.size_m)
+        offset = lowest_corner(make_pose(self._R, np.zeros(3)), self.pad)  # from the pad's centre
         top_z = float(self._job.get("top_z", corner_z))
         start = self._corner - offset
         start[2] += max(top_z + self.clearance_m - corner_z, 0.0)  # the corner above everything touched
