@@ -1,7 +1,7 @@
-"""Border sweeps in the simulator: a level pad sweeps the foot of a pyramid's face, and a tilted
-pad the side of a groove it bridges, with its border row: the surface a flat pad cannot lie on
-is touched, no deeper than a flat contact presses, and the pad goes back to where it came
-from."""
+"""Border sweeps in the simulator: a level pad sweeps the foot of a pyramid's face up to the
+frontier left above it, and a tilted pad the side of a groove it bridges, with its border row:
+the surface a flat pad cannot lie on is touched, no deeper than a flat contact presses, and the
+pad goes back to where it came from."""
 
 import math
 from pathlib import Path
@@ -56,26 +56,33 @@ def _face_job(k):
             "home": (np.array([0.0, 0.0, 0.0671]), np.array([0.0, 0.0, 1.0]))}, out, n[0]
 
 
-def test_the_level_pad_touches_the_face_low_along_its_foot_and_goes_home():
-    job, out, normal = _face_job(2)  # the face away from the arm
+def test_the_level_pad_sweeps_the_band_below_the_frontier_in_passes_up_the_face_and_goes_home():
+    job, out, normal = _face_job(2)  # the face away from the arm; its frontier 4–14 mm up
     sweep = BorderSweep()
     root = py_trees.composites.Sequence("sweep_the_foot", memory=True, children=[_Ask(job), sweep])
     scene = load_scene(ROOT / "sim" / "scan_pyramid.yaml")
-    result = run_mission(py_trees.trees.BehaviourTree(root), scene, duration=60.0)
+    result = run_mission(py_trees.trees.BehaviourTree(root), scene, duration=90.0)
     assert result.summary.status == "success", result.summary.reason
     assert job["result"] == "swept"
     points = result.contact_data[:, :3]
-    assert len(points) > 100
-    # every sample low on the face (the pad settles to 2 mm within its first second), on the
-    # face's plane within what a flat contact presses
-    assert np.all((points[:, 2] > 0.0015) & (points[:, 2] < 0.003))
-    assert np.median(points[:, 2]) < 0.0021
+    assert len(points) > 500
+    # from the first pass 2 mm above the table (the pad settles there within its first second)
+    # up to the frontier's height, never higher
+    assert np.all((points[:, 2] > 0.0015) & (points[:, 2] < job["sweep"]["band_top_z"]))
+    assert np.min(points[:, 2]) < 0.0021
+    # on the face's plane: never pressed in deeper than a flat contact presses, and outside it
+    # by no more than the border row's tactels lie inside the pad's edge
     foot = np.array([*(out * HALF), 0.0])
     off_plane = (points - foot) @ normal
-    assert np.all(np.abs(off_plane) < 0.0015)
-    # along the foot they cover the run: 100 mm of the frontier's 100 mm
-    s = points[:, :2] @ np.array([-out[1], out[0]])
-    assert s.max() - s.min() > 0.09
+    assert np.all((off_plane > -0.001) & (off_plane < 0.002))
+    # the band between the first pass and the frontier is touched along the run (within the
+    # coverage radius), so the surface the pad lying on the face left there is scanned
+    along = np.array([-out[1], out[0]])
+    heights, s = np.meshgrid(np.linspace(0.0025, 0.012, 12), np.linspace(-0.04, 0.04, 17))
+    band = foot + np.column_stack((-out * (heights.ravel() / math.tan(SLOPE))[:, None]
+                                   + along * s.ravel()[:, None], heights.ravel()))
+    distance, _ = cKDTree(points).query(band)
+    assert np.all(distance < 0.002)
     # never below the table guard's limit, never pressed above twice the sweep's target
     log = result.log
     pad = PadGeometry()

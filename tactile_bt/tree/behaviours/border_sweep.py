@@ -18,7 +18,8 @@ the pad with the side nearest its present heading facing the surface, and approa
 
 - a foot: level, sideways from beyond it at ``foot_z``; it sweeps along the foot holding its
   height and orientation, its distance to the face servoed on the border row's pressure
-  (``sweep_pressure_pa``);
+  (``sweep_pressure_pa``), to and fro in passes ``foot_step_m`` apart up the face until the
+  band below the frontier left there is swept (:func:`foot_passes`);
 - a hollow's side: tilted about the hinge (z × the direction of its body) ``lean_rad`` more
   steeply than the rim, from above; it sweeps along the hollow in passes ``step_m`` apart from
   its edge towards its middle, pressing down on the pressure and leaning about its border's edge
@@ -55,7 +56,7 @@ from tactile_bt.tree.blackboard import TIME, read, read_or
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE
 
-__all__ = ["BorderSweep", "level_facing"]
+__all__ = ["BorderSweep", "level_facing", "foot_passes"]
 
 #: Gains (1/s) of the place and orientation held while sweeping.
 _K_HOLD = 5.0
@@ -76,6 +77,22 @@ _CARVING = 2.0
 _MAX_LEAN_RPS = 0.3
 #: Only the imprint within this distance (m) of the border facing the face is recorded.
 _BORDER_M = 0.005
+#: A foot's next pass, higher up the face, has this long (s) more to find the face again.
+_REFIND_S = 1.0
+#: Most passes of a foot's sweep (a band higher than this many steps is swept only this far up).
+_MOST_FOOT_PASSES = 8
+
+
+def foot_passes(foot_z: float, band_top_z: float, normal: np.ndarray, step_m: float) -> tuple[int, float]:
+    """How many level passes sweep the band of a face between ``foot_z`` and ``band_top_z``
+    (world heights, m; the frontier left above it), and how much higher (m) each pass runs
+    than the one before: passes ``step_m`` (m) apart along a face of outward ``normal``
+    (world, unit), the first at ``foot_z``, the last less than a step below the band's top
+    (which the frontier's own samples cover); :data:`_MOST_FOOT_PASSES` at most."""
+    rise = step_m * math.hypot(float(normal[0]), float(normal[1]))  # step_m along the face
+    if rise <= 0 or band_top_z <= foot_z:
+        return 1, 0.0
+    return min(_MOST_FOOT_PASSES, max(1, math.ceil((band_top_z - foot_z) / rise))), rise
 
 
 def level_facing(towards: np.ndarray, current: np.ndarray) -> np.ndarray:
@@ -117,6 +134,10 @@ class BorderSweep(Reapproach):
                           doc="Sweeping a valley's side, the pad rolls about its border at this rate per m that the "
                               "centre of pressure lies inside the border row by more than half a pitch (body up), or "
                               "less (body down): it leans until the row next to the border just begins to carry.")
+    foot_step_m = Parameter(0.003, bound=POSITIVE,
+                            doc="A foot is swept in level passes this far apart up the face (m, along it), from "
+                                "``foot_z`` up to the frontier left above it, so that the band between is touched "
+                                "within the coverage radius.")
     max_tilt_rad = Parameter(math.radians(70.0), bound=NON_NEGATIVE,
                              doc="Largest tilt of the pad from the level while sweeping a valley's side (rad); "
                                  "beyond it the sweep ends (``tilt``).")
@@ -148,7 +169,8 @@ class BorderSweep(Reapproach):
         if self._kind == "foot":
             tilt, z = 0.0, float(self._job["foot_z"])
             self._press = -self._out  # sideways onto the face
-            self._passes, self._step = 1, np.zeros(3)
+            self._passes, rise = foot_passes(z, float(run.get("band_top_z", z)), self._normal, self.foot_step_m)
+            self._step = np.array([0.0, 0.0, rise])  # up the face: the press finds it further in
         else:  # steeper than the rim by lean_rad to start with; the lean servo sets it from there
             tilt = math.atan(max(float(run["rim_rise"]), 0.0)) + self.lean_rad
             z = float(run["rim_z"])
@@ -250,6 +272,8 @@ class BorderSweep(Reapproach):
                 self._finish("swept")
                 return Status.RUNNING
             forward = not forward
+            if self._kind == "foot":  # rising to the next pass leaves the face: time to find it again
+                self._last_contact = self.now + _REFIND_S
         if f.in_contact:
             press = max(-self.max_press_mps, min(self.max_press_mps, self.kp * (self.sweep_pressure_pa - f.pressure)))
         else:
