@@ -41,6 +41,8 @@ def test_a_face_gives_one_run_along_its_foot_at_the_sweeping_height():
     # the start lies on the face's foot line at 2 mm: 80 mm out less 2 mm / tan 40°
     npt.assert_allclose(run["start"] @ out, 0.08 - 0.002 / math.tan(SLOPE), atol=0.001)
     npt.assert_allclose(run["length_m"], s[-1] - s[0], atol=0.002)
+    # the band left above the foot reaches up to the frontier: the cells' heights, 4–14 mm
+    assert np.percentile(z, 80) <= run["band_top_z"] <= z.max()
 
 
 def test_a_ridge_s_few_cells_make_no_run_and_two_faces_make_two():

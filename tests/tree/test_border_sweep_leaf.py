@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 from tactile_bt.control.spatial import exp_twist, make_pose
 from tactile_bt.testing import LeafHarness, make_features
 from tactile_bt.tree.behaviours import BorderSweep
-from tactile_bt.tree.behaviours.border_sweep import level_facing
+from tactile_bt.tree.behaviours.border_sweep import foot_passes, level_facing
 
 DOWN = Rotation.from_euler("x", 180, degrees=True)
 
@@ -103,3 +103,16 @@ def test_its_message_is_the_sweep_s_phase_after_a_tick_with_nothing_to_do():
                                "home": (np.array([-0.03, 0.0, LEDGE_Z]), np.array([0.0, 0.0, 1.0]))})
     assert h.tick(make_features(in_contact=False)) == Status.RUNNING
     assert leaf.feedback_message in ("lifting off", "rising", "moving over", "lowering to the standoff")
+
+
+@pytest.mark.parametrize("slope_deg", [30, 40, 55, 70])
+def test_a_foot_s_passes_climb_the_face_until_the_band_below_the_frontier_is_swept(slope_deg):
+    slope = math.radians(slope_deg)
+    normal = np.array([math.sin(slope), 0.0, math.cos(slope)])
+    passes, rise = foot_passes(0.002, 0.0113, normal, 0.003)
+    npt.assert_allclose(rise / math.sin(slope), 0.003)  # 3 mm apart along the face
+    assert 0.0113 - rise <= 0.002 + (passes - 1) * rise < 0.0113  # the last within a step below the frontier
+    # a frontier at the foot, or a level surface, needs the first pass only; a high band, eight at most
+    assert foot_passes(0.002, 0.002, normal, 0.003)[0] == 1
+    assert foot_passes(0.002, 0.01, np.array([0.0, 0.0, 1.0]), 0.003)[0] == 1
+    assert foot_passes(0.002, 0.2, normal, 0.003)[0] == 8
