@@ -20,8 +20,8 @@ import math
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "HOLE", "WRIST", "EXPLAINING", "sector",
-           "describe_left"]
+__all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "HOLE", "HOLE_RIM_M", "WRIST",
+           "EXPLAINING", "sector", "describe_left"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -50,6 +50,10 @@ VALLEY = "valley"
 #: or corner went down near the table touching nothing): the rim of a hole, beyond which the
 #: surface falls away out of the pad's reach.
 HOLE = "hole"
+#: A probe that finds a hole open marks it empty only farther than this (m) from its edge: the
+#: band along the rim, where the wall under a rim may be, stays untouched (see
+#: :meth:`FrontierMap.hole_rims`).
+HOLE_RIM_M = 0.004
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
@@ -229,7 +233,7 @@ class FrontierMap:
             self.cause[rr, cc, k % SECTORS] = c
         return int(self.blocked[rr, cc, s].sum()) - before
 
-    def valleys(self, max_width_m: float) -> np.ndarray:
+    def valleys(self, max_width_m: float, channels: bool = True) -> np.ndarray:
         """``(n, n)`` bool: the untouched cells of hollows a flat pad ``max_width_m`` wide bridges.
 
         - Holes in the touched area, enclosed by it (not connected to the untouched surroundings)
@@ -240,7 +244,8 @@ class FrontierMap:
           morphological closing with a disc ``max_width_m`` across), in parts that hold cells
           the pad rested across. A bridge seen beyond the touched area explains nothing there.
 
-        Cells seen :attr:`empty` belong to no hollow (the table seen through a ring)."""
+        Cells seen :attr:`empty` belong to no hollow (the table seen through a ring). With
+        ``channels`` False, the enclosed holes only."""
         out = np.zeros((self.n, self.n), dtype=bool)
         w = self._window()
         t = self._touched(self.count[w])
@@ -257,7 +262,8 @@ class FrontierMap:
                 height, width = (sl.stop - sl.start for sl in box)
                 keep[k] = min(height, width) * self.cell_m <= max_width_m
         found = keep[holes]
-        found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
+        if channels:
+            found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
         out[w] = found
         return out
 
@@ -303,7 +309,7 @@ class FrontierMap:
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[facing & failed] = VALLEY
         if self.empty.any() and blocked.any():
-            seen = self.empty & ~self.touched
+            seen = (self.empty & ~self.touched) | self.hole_rims()
             opened = ndimage.binary_dilation(seen, structure=np.ones((3, 3), dtype=bool))[rows, cols] & blocked
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[opened & failed] = HOLE
@@ -387,6 +393,20 @@ class FrontierMap:
         rc = rc[np.all((rc >= 0) & (rc < self.n), axis=1)]
         self.empty[rc[:, 0], rc[:, 1]] = True
         self.empty &= ~self.touched
+
+    def hole_rims(self) -> np.ndarray:
+        """``(n, n)`` bool: the untouched cells, not seen :attr:`empty`, within
+        :data:`HOLE_RIM_M` and a cell of cells seen empty: the band a probe leaves along the rim
+        of a hole it found open, which the estimate still counts as untouched and across which
+        a failed attempt at the rim faces the hole (:data:`HOLE`)."""
+        seen = self.empty & ~self.touched
+        if not seen.any():
+            return np.zeros_like(seen)
+        w = self._window()
+        near = ndimage.distance_transform_edt(~seen[w]) * self.cell_m <= HOLE_RIM_M + self.cell_m
+        out = np.zeros_like(seen)
+        out[w] = near & ~seen[w] & ~self._touched(self.count[w])
+        return out
 
     def touched_area(self) -> float:
         """Area (m², in the table plane) of the touched cells."""

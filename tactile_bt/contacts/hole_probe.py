@@ -20,6 +20,8 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
+from tactile_bt.contacts.frontier_map import HOLE_RIM_M
+
 __all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn"]
 
 #: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
@@ -29,7 +31,7 @@ _TILT_STEPS = np.radians([0.0, 10.0, 20.0])
 _PAD_STEP_M = 0.004
 
 
-def probe_points(m, mask: np.ndarray, most: int = 5, inside_m: float = 0.006, rim_m: float = 0.004,
+def probe_points(m, mask: np.ndarray, most: int = 5, inside_m: float = 0.006, rim_m: float = HOLE_RIM_M,
                  min_valley_m2: float = 2e-4) -> list[dict]:
     """Points to probe in each valley of ``mask`` (``(n, n)`` bool over the grid of the map
     ``m``) of at least ``min_valley_m2`` (m²): the cell farthest from the touched area, then up

@@ -6,7 +6,9 @@ import math
 import numpy as np
 import numpy.testing as npt
 
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, HOLE, OPEN, FrontierMap
+from scipy import ndimage
+
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, HOLE, HOLE_RIM_M, OPEN, FrontierMap
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from scan_helpers import disc
 
@@ -267,3 +269,32 @@ def test_the_rim_of_a_valley_seen_empty_is_a_hole_and_explained():
     assert HOLE in EXPLAINING
     outer = np.linalg.norm(m.centre_of(rows, cols), axis=1) > 0.026
     assert set(reason[outer]) <= {OPEN, GAP}  # the outer rim is no hole's
+
+
+def test_across_the_band_a_probe_leaves_at_a_wide_hole_s_rim_the_stalls_face_the_hole():
+    # a ring: its hole 90 mm across (wider than an 80 mm pad), stalled round its rim; a probe
+    # found it open and marked it empty but for the 4 mm band along the rim
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.25)
+    pts, normals = disc(0.09, step=0.001)
+    radius = np.linalg.norm(pts[:, :2], axis=1)
+    m.add(pts[radius >= 0.045], normals[radius >= 0.045])
+    for angle in np.linspace(0.0, 2 * math.pi, 36, endpoint=False):
+        d = np.array([math.cos(angle), math.sin(angle)])
+        m.block(0.045 * d, 0.006, -d, cause="stall")
+    hole = m.valleys(0.16, channels=False)
+    assert hole.any() and not m.valleys(0.08).any()  # enclosed, too wide for the pad to bridge
+    depth = ndimage.distance_transform_edt(hole) * m.cell_m
+    m.mark_empty(m.centre_of(*np.nonzero(hole & (depth > HOLE_RIM_M))))
+    rims = m.hole_rims()
+    rim_r = np.linalg.norm(m.centre_of(*np.nonzero(rims)), axis=1)
+    assert np.all((rim_r > 0.045 - HOLE_RIM_M - 0.004) & (rim_r < 0.0455))  # the band, and only it
+    npt.assert_allclose(np.count_nonzero(rims) * m.cell_m**2, 2 * math.pi * 0.043 * HOLE_RIM_M, rtol=0.35)
+    rows, cols, out, reason = m.classify(math.radians(60), valley_m=0.08)
+    r = np.linalg.norm(m.centre_of(rows, cols), axis=1)
+    inner = r < 0.05
+    assert np.sum(reason[inner] == HOLE) > 0.9 * np.sum(reason[inner] != GAP)
+    assert set(reason[r > 0.085]) <= {OPEN, GAP}  # the outer rim is no hole's
+    # without the probe's finding the stalls stay what they were
+    m.empty[:] = False
+    _, _, _, before = m.classify(math.radians(60), valley_m=0.08)
+    assert HOLE not in set(before)

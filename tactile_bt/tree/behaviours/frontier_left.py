@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 from py_trees.common import Status
+from scipy import ndimage
 
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST
@@ -54,12 +55,23 @@ _FAR_M = 0.003
 FRONTIER_LEFT_KEY = "/scan/frontier_left"
 
 
+def _holes_touching(holes: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """The connected parts of ``holes`` (``(n, n)`` bool) that ``cells`` (``(n, n)`` bool)
+    touch, an 8-neighbour apart."""
+    labels, _ = ndimage.label(holes)
+    near = ndimage.binary_dilation(cells, structure=np.ones((3, 3), dtype=bool))
+    keep = np.unique(labels[near & holes])
+    return np.isin(labels, keep[keep > 0])
+
+
 class FrontierLeft:
     """The frontier left, the re-approaches and the border sweeps of a frontier planner (a mixin;
     the planner has ``map``, ``plan``, ``left``, ``coverage``, ``below_m2``, ``valley_m2``, its
     contact cloud ``_cloud`` and its table and tilt settings)."""
 
     valley_m2 = 0.0
+    #: Estimated untouched area (m², table plane) along the rims of holes a probe found open.
+    hole_rim_m2 = 0.0
     #: Centres (world xy, m) of the valleys probed so far.
     _probed: list = []
     #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
@@ -139,16 +151,22 @@ class FrontierLeft:
         self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
         # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
         # may be partly the table seen through a ring: the estimate errs towards failing)
-        valley = float(np.count_nonzero(self.map.valleys(min(self.pad.size_m)))) * self.cell_m**2 \
-            if np.any(reason == VALLEY) else 0.0
+        valleys = self.map.valleys(min(self.pad.size_m)) if np.any(reason == VALLEY) else None
+        valley = float(np.count_nonzero(valleys)) * self.cell_m**2 if valleys is not None else 0.0
+        # the band a probe left along the rim of a hole it found open (not counted as a valley already)
+        rims = self.map.hole_rims() if self.map.empty.any() else None
+        if rims is not None and valleys is not None:
+            rims &= ~valleys
+        rim = float(np.count_nonzero(rims)) * self.cell_m**2 if rims is not None else 0.0
         # the arm stopped the pad there, not the surface: it goes on (see untouched_beyond)
         far = (reason == "reach") | (reason == WRIST)
         beyond = untouched_beyond(self.map, rows[far], cols[far], out[far], steep, self._cloud.points,
                                   defaults.COVERAGE_RADIUS_M, self.table_z_m)
         touched = self.map.touched_area()
-        self.coverage = touched / (touched + below + valley + beyond) if touched > 0 else 0.0
+        self.coverage = touched / (touched + below + valley + rim + beyond) if touched > 0 else 0.0
         self.below_m2 = below
         self.valley_m2 = valley
+        self.hole_rim_m2 = rim
         self.beyond_reach_m2 = beyond
         write(FRONTIER_LEFT_KEY, self.frontier_left())
         ok = reason == OPEN
@@ -161,12 +179,13 @@ class FrontierLeft:
         faces (``untouched_near_table_m2``, m² in the table plane; see ``min_coverage``), in the
         valleys (``untouched_in_valleys_m2``) and beyond the frontier the arm's reach explains
         (``untouched_beyond_reach_m2``), the estimated coverage (the touched area over it and
-        those, ``estimated_coverage``) and where that frontier lies (``near_table``,
+        those and the bands along the rims of holes a probe found open,
+        ``untouched_at_hole_rims_m2``; ``estimated_coverage``) and where that frontier lies (``near_table``,
         :meth:`face_left`)."""
         return {"explained": {k: v for k, v in self.left.items() if k in EXPLAINING},
                 "unexplained": {k: v for k, v in self.left.items() if k not in EXPLAINING},
                 "untouched_near_table_m2": self.below_m2, "untouched_in_valleys_m2": self.valley_m2,
-                "untouched_beyond_reach_m2": self.beyond_reach_m2,
+                "untouched_beyond_reach_m2": self.beyond_reach_m2, "untouched_at_hole_rims_m2": self.hole_rim_m2,
                 "estimated_coverage": self.coverage,
                 "near_table": self.face_left()}
 
@@ -186,6 +205,8 @@ class FrontierLeft:
         where = [f"{self.below_m2 * 1e4:.1f} cm² near the table below {self.face_left()}"] if self.below_m2 > 0 else []
         if self.valley_m2 > 0:
             where.append(f"{self.valley_m2 * 1e4:.1f} cm² in valleys narrower than the pad")
+        if self.hole_rim_m2 > 0:
+            where.append(f"{self.hole_rim_m2 * 1e4:.1f} cm² along the rims of holes")
         if self.beyond_reach_m2 > 0:
             reach = self.left.get("reach", 0.0) + self.left.get(WRIST, 0.0)
             where.append(f"{self.beyond_reach_m2 * 1e4:.1f} cm² beyond {reach * 1e3:.0f} mm of frontier "
@@ -235,13 +256,27 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
-    def _probe_hole(self, point: np.ndarray) -> dict | None:
+    def _probe_hole(self, point: np.ndarray, wide: bool = False) -> dict | None:
         """Write a probe of the nearest valley not probed before (see ``max_hole_probes``) to
-        ``reapproach_key`` and return it; None when there is none (or probes are off)."""
+        ``reapproach_key`` and return it; None when there is none (or probes are off). With
+        ``wide``, of the nearest hole in the touched area wider than the pad (up to twice its
+        width) at whose rim an attempt failed unexplained instead: the pad fits in it, but
+        slides over no rim that falls away out of its tilt, and cannot tell whether the hole has
+        a floor."""
         if not self.reapproach_key or self.map is None or len(self._probed) >= self.max_hole_probes \
-                or not math.isfinite(self.table_z_m) or self.valley_m2 <= 0:
+                or not math.isfinite(self.table_z_m) or (self.valley_m2 <= 0 and not wide):
             return None
-        valleys = probe_points(self.map, self.map.valleys(min(self.pad.size_m)), _HOLE_POINTS)
+        width = min(self.pad.size_m)
+        if wide:
+            mask = self.map.valleys(_SWEPT_HOLES * width, channels=False) & ~self.map.valleys(width)
+            rows, cols, _, reason = self._classify()
+            failed = np.array([r not in EXPLAINING and r not in (OPEN, GAP) for r in reason], dtype=bool)
+            rim = np.zeros_like(mask)
+            rim[rows[failed], cols[failed]] = True
+            mask = _holes_touching(mask, rim)
+        else:
+            mask = self.map.valleys(width)
+        valleys = probe_points(self.map, mask, _HOLE_POINTS)
         valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - c) > _HOLE_AGAIN_M for c in self._probed)]
         if not valleys:
             return None
@@ -267,14 +302,15 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
-    def _asked_probe(self, point: np.ndarray, detail: str) -> bool:
-        """Ask for a probe of a valley (:meth:`_probe_hole`) and say so in the feedback
-        message; False when there is none to ask for."""
-        job = self._probe_hole(point)
+    def _asked_probe(self, point: np.ndarray, detail: str, wide: bool = False) -> bool:
+        """Ask for a probe of a valley, or with ``wide`` of a hole wider than the pad
+        (:meth:`_probe_hole`), and say so in the feedback message; False when there is none to
+        ask for."""
+        job = self._probe_hole(point, wide)
         if job is None:
             return False
         x, y = job["hole"]["centre"] * 1e3
-        self.feedback_message = (f"probing the valley at ({x:.0f}, {y:.0f}) mm with the pad's corner at "
+        self.feedback_message = (f"probing the {'hole' if wide else 'valley'} at ({x:.0f}, {y:.0f}) mm with the pad's corner at "
                                  f"{len(job['hole']['probes'])} points: {detail}")
         return True
 
