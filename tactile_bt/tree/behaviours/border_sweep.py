@@ -165,6 +165,8 @@ class BorderSweep(Reapproach):
         self._s_end = max(length - (reach - _END_INSIDE_M), length / 2)
         border = np.asarray(run["start"], dtype=float) + along * self._first  # world xy of the border's middle
         level = level_facing(-out, self.pose[:3, :3])
+        if self._kind == "foot":  # any side may face the face: a quarter turn back where the wrist is wound
+            level = self._unwound(level)
         top_z = float(self._job.get("top_z", 0.0))
         if self._kind == "foot":
             tilt, z = 0.0, float(self._job["foot_z"])

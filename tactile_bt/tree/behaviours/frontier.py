@@ -385,10 +385,10 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()
                     if self.unexplained_m() > self.max_unexplained_m:
-                        # a hole wider than the pad first: a sweep of its sides cannot tell whether
-                        # it has a floor; then sweeps: a valley's sides often hold the stalls at its rim too
-                        if self._asked_probe(point, f"{left} ({counts})", wide=True) \
-                                or self._asked_sweep(point, f"{left} ({counts})"):
+                        # sweeps first: a valley's sides often hold the stalls at its rim too, and the
+                        # sides they touch may narrow a hole into a valley; then a hole wider than the pad
+                        if self._asked_sweep(point, f"{left} ({counts})") \
+                                or self._asked_probe(point, f"{left} ({counts})", wide=True):
                             return Status.FAILURE
                         job = self._reapproach(point)
                         if job is not None:
