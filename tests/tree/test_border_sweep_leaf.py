@@ -116,3 +116,27 @@ def test_a_foot_s_passes_climb_the_face_until_the_band_below_the_frontier_is_swe
     assert foot_passes(0.002, 0.002, normal, 0.003)[0] == 1
     assert foot_passes(0.002, 0.01, np.array([0.0, 0.0, 1.0]), 0.003)[0] == 1
     assert foot_passes(0.002, 0.2, normal, 0.003)[0] == 8
+
+
+def test_a_foot_s_level_pad_is_turned_back_a_quarter_turn_where_the_wrist_is_wound():
+    """Any side of the square pad may face the foot: where the wrist has 10° left turning the pad
+    about -z, the sweep's level pad is turned a quarter turn the other way from the side that
+    turns it least; with room, it is that side."""
+    out = np.array([1.0, 0.0])
+    run = {"kind": "foot", "out": out, "along": np.array([0.0, 1.0]), "normal": np.array([0.64, 0.0, 0.77]),
+           "start": np.array([0.08, -0.05]), "length_m": 0.1, "centre": np.array([0.08, 0.0]), "band_top_z": 0.002}
+    start = make_pose(Rotation.from_euler("z", 20, degrees=True).as_matrix() @ DOWN.as_matrix(),
+                      np.array([0.0, 0.0, 0.05]))
+    turns = {}
+    for negative_room in (math.radians(10), math.radians(170)):
+        leaf = BorderSweep()
+        h = LeafHarness(leaf, pose=start)
+        h.set("/robot/turn_room", lambda room=negative_room: (7, math.radians(330) - room, room))
+        h.set("/scan/reapproach", {"sweep": run, "foot_z": 0.002, "top_z": 0.05,
+                                   "home": (start[:3, 3], np.array([0.0, 0.0, 1.0]))})
+        h.tick(make_features())
+        npt.assert_allclose(leaf._R[:, 2], [0.0, 0.0, -1.0], atol=1e-9)  # level either way
+        turns[negative_room] = Rotation.from_matrix(start[:3, :3].T @ leaf._R).as_rotvec()[2]
+    least = Rotation.from_matrix(start[:3, :3].T @ level_facing(-out, start[:3, :3])).as_rotvec()[2]
+    assert turns[math.radians(170)] == pytest.approx(least, abs=1e-9)
+    assert turns[math.radians(10)] == pytest.approx(least + math.pi / 2, abs=math.radians(1))

@@ -14,7 +14,8 @@ for the ``retry`` to carry it out.
 
 The ``border_sweep`` leaf then lifts the pad off, rises above everything touched (or, lying on
 the face whose foot it is to sweep, turns level just above it and glides down along it), turns
-the pad with the side nearest its present heading facing the surface, and approaches:
+the pad with the side nearest its present heading facing the surface (for a foot, a quarter turn
+back where the wrist is wound, as ``reapproach`` does), and approaches:
 
 - a foot: level, sideways from beyond it at ``foot_z``; it sweeps along the foot holding its
   height and orientation, its distance to the face servoed on the border row's pressure
