@@ -6,9 +6,11 @@ than the pad may tilt), which it reads from the normals it recorded: the pad's o
 while it touched. A flat pad bridging a concave surface (the inside of a ring) records its own
 tilt, not the surface's. This script runs a scan, classifies the frontier it left as the
 planner does, and prints, for each reason, the recorded tilt, the object's true tilt at the same
-samples (from the scene's own shape), and how flat the samples within 4 mm lie (the spread off
-their fitted plane over the spread across it: a plane fit tells the slope only where this is
-small).
+samples (from the scene's own shape), how far those samples lie off the object (outside it:
+in the air, where the imprint of an edge contact reaches beyond the edge), and how flat the
+samples within 4 mm lie (the spread off their fitted plane over the spread across it: a plane
+fit tells the slope only where this is small). A first line says the same of every contact
+sample.
 
     python docs/frontier_truth.py --scene sim/scan_torus.yaml --seed 0
     python docs/frontier_truth.py --unseen torus_wide --seed 0
@@ -29,6 +31,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 #: Radius (m) of the samples a plane is fitted to, and the step (m) of the shape's gradient.
 _FIT_M = 0.004
 _STEP_M = 1e-4
+
+
+def off_object(objects, points: np.ndarray) -> np.ndarray:
+    """Signed distance (m) of ``points`` ``(k, 3)`` from the nearest object (not the table):
+    positive outside it."""
+    solid = [o for o in objects if type(o).__name__ != "Table"]
+    return np.min(np.stack([o.sdf(points) for o in solid]), axis=0)
 
 
 def true_tilt(objects, points: np.ndarray) -> np.ndarray:
@@ -90,8 +99,12 @@ def main(argv: list[str] | None = None) -> None:
     reason = reason.astype(str)
     cell = m.cell_of(points[:, :2])
     print(f"{scene.name}, seed {args.seed}: {result.summary.status}: {result.summary.reason[:160]}")
-    print("| reason | frontier cells | recorded tilt (median, deg) | true tilt (10/50/90 %, deg) | off-plane / across spread (median) |")
-    print("|---|---|---|---|---|")
+    off = off_object(scene.objects, points) * 1e3
+    print(f"{len(points)} contact samples: {np.mean(off > 1.0):.0%} more than 1 mm outside the object (the "
+          f"farthest {off.max():.1f} mm), {np.mean(off < -1.0):.0%} more than 1 mm inside it")
+    print("| reason | frontier cells | recorded tilt (median, deg) | true tilt (10/50/90 %, deg) | "
+          "off the object (median / largest, mm) | off-plane / across spread (median) |")
+    print("|---|---|---|---|---|---|")
     for name in sorted(set(reason) - {"gap"}):
         sel = np.flatnonzero(reason == name)
         centres = []
@@ -103,8 +116,9 @@ def main(argv: list[str] | None = None) -> None:
         truth = true_tilt(scene.objects, centres)
         recorded = np.degrees(m.tilt(rows[sel], cols[sel]))
         lo, mid, hi = np.percentile(truth, [10, 50, 90])
+        away = off_object(scene.objects, centres) * 1e3
         print(f"| {name or 'open'} | {len(sel)} | {np.nanmedian(recorded):.0f} | {lo:.0f} / {mid:.0f} / {hi:.0f} | "
-              f"{np.nanmedian(flatness(points, centres)):.2f} |")
+              f"{np.median(away):.1f} / {away.max():.1f} | {np.nanmedian(flatness(points, centres)):.2f} |")
 
 
 if __name__ == "__main__":

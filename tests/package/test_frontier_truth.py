@@ -1,5 +1,5 @@
-"""docs/frontier_truth.py reads the object's true slope from the scene's own shape and tells
-samples lying on a plane from scattered ones."""
+"""docs/frontier_truth.py reads the object's true slope and how far a sample lies off it from the
+scene's own shape, and tells samples lying on a plane from scattered ones."""
 
 import importlib.util
 import sys
@@ -30,6 +30,14 @@ def test_the_true_tilt_on_the_shipped_torus_follows_its_tube():
     angles = np.radians([0.0, 30.0, 60.0])  # from the top of the tube towards the hole
     points = np.column_stack((R - r * np.sin(angles), np.zeros(3), zc + r * np.cos(angles)))
     npt.assert_allclose(TRUTH.true_tilt(scene.objects, points), [0.0, 30.0, 60.0], atol=0.5)
+
+
+def test_a_sample_in_the_air_beside_the_torus_is_as_far_outside_as_it_lies():
+    scene = load_scene(REPO / "sim" / "scan_torus.yaml")
+    R, r, zc = 0.06, 0.025, 0.025
+    # on the tube's top, 3 mm above it, 2 mm into the hole from its innermost point, 1 mm inside
+    points = np.array([[R, 0.0, zc + r], [R, 0.0, zc + r + 0.003], [R - r - 0.002, 0.0, zc], [0.0, R, zc + r - 0.001]])
+    npt.assert_allclose(TRUTH.off_object(scene.objects, points), [0.0, 0.003, 0.002, -0.001], atol=1e-6)
 
 
 def test_samples_on_a_plane_lie_flat_and_a_scattered_blob_does_not():
