@@ -98,6 +98,9 @@ class FrontierMap:
         self.z_max = np.full((self.n, self.n), -np.inf)
         #: Cells seen to hold no surface above the table (a border swept down to it touched nothing).
         self.empty = np.zeros((self.n, self.n), dtype=bool)
+        #: Of those, the cells a probe found open: the inside of a hole, its rim left out (see
+        #: :meth:`hole_rims`).
+        self.opened = np.zeros((self.n, self.n), dtype=bool)
         #: Cells a flat pad was seen to bridge: it rested on contacts on both sides of them.
         self.hollow = np.zeros((self.n, self.n), dtype=bool)
         self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
@@ -291,7 +294,8 @@ class FrontierMap:
         vertical; the cause of the block in the outward direction where an attempt to cross it
         has failed, or :data:`VALLEY` where that attempt faced a hole of the touched area at most
         ``valley_m`` across (:meth:`valleys`; 0: none); :data:`HOLE` where that attempt (not
-        explained otherwise) faced cells seen :attr:`empty` and still untouched; :data:`GAP` in
+        explained otherwise) faced cells seen :attr:`empty` and still untouched, or the band a
+        probe left along the rim of a hole it found open (:meth:`hole_rims`); :data:`GAP` in
         the cells that count as touched without a sample of their own (between samples, see
         :attr:`touched`);
         :data:`OPEN` ("") where the frontier is still to be crossed."""
@@ -309,7 +313,7 @@ class FrontierMap:
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[facing & failed] = VALLEY
         if self.empty.any() and blocked.any():
-            seen = (self.empty & ~self.touched) | self.hole_rims()
+            seen = (self.empty & ~self.touched) | (self.hole_rims() if self.opened.any() else False)
             opened = ndimage.binary_dilation(seen, structure=np.ones((3, 3), dtype=bool))[rows, cols] & blocked
             failed = np.array([r not in EXPLAINING for r in reason], dtype=bool)
             reason[opened & failed] = HOLE
@@ -387,25 +391,34 @@ class FrontierMap:
         self.hollow[rows.ravel()[inside], cols.ravel()[inside]] = True
         return int(inside.sum())
 
-    def mark_empty(self, xy: np.ndarray) -> None:
-        """Mark the untouched cells at world xy points ``(k, 2)`` (m) as :attr:`empty`."""
+    def mark_empty(self, xy: np.ndarray, opened: bool = False) -> None:
+        """Mark the untouched cells at world xy points ``(k, 2)`` (m) as :attr:`empty`; with
+        ``opened``, as found open by a probe of a hole too (:attr:`opened`)."""
         rc = self.cell_of(np.asarray(xy, dtype=float).reshape(-1, 2))
         rc = rc[np.all((rc >= 0) & (rc < self.n), axis=1)]
         self.empty[rc[:, 0], rc[:, 1]] = True
-        self.empty &= ~self.touched
+        if opened:
+            self.opened[rc[:, 0], rc[:, 1]] = True
+        untouched = ~self.touched
+        self.empty &= untouched
+        self.opened &= untouched
 
     def hole_rims(self) -> np.ndarray:
         """``(n, n)`` bool: the untouched cells, not seen :attr:`empty`, within
-        :data:`HOLE_RIM_M` and a cell of cells seen empty: the band a probe leaves along the rim
-        of a hole it found open, which the estimate still counts as untouched and across which
-        a failed attempt at the rim faces the hole (:data:`HOLE`)."""
-        seen = self.empty & ~self.touched
+        :data:`HOLE_RIM_M` and a cell of cells a probe found open (:attr:`opened`): the band a
+        probe leaves along the rim of a hole, which the estimate still counts as untouched and
+        across which a failed attempt at the rim faces the hole (:data:`HOLE`)."""
+        out = np.zeros((self.n, self.n), dtype=bool)
+        reach = HOLE_RIM_M + self.cell_m
+        margin = int(math.ceil(reach / self.cell_m)) + 1
+        rows, cols = self._window()
+        w = (slice(max(rows.start - margin, 0), min(rows.stop + margin, self.n)),
+             slice(max(cols.start - margin, 0), min(cols.stop + margin, self.n)))
+        seen = self.opened[w] & self.empty[w]
         if not seen.any():
-            return np.zeros_like(seen)
-        w = self._window()
-        near = ndimage.distance_transform_edt(~seen[w]) * self.cell_m <= HOLE_RIM_M + self.cell_m
-        out = np.zeros_like(seen)
-        out[w] = near & ~seen[w] & ~self._touched(self.count[w])
+            return out
+        near = ndimage.distance_transform_edt(~seen) * self.cell_m <= reach
+        out[w] = near & ~self.empty[w] & ~self._touched(self.count[w])
         return out
 
     def touched_area(self) -> float:

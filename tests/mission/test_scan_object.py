@@ -669,18 +669,24 @@ def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_appl
 def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_open_explains_it():
     # a level ring 30 mm above the table, its hole 90 mm across (wider than the pad, which
     # slides over no rim into it); the outer rim too steep to go on, every attempt at the inner
-    # rim stalled: the planner asks to lower the pad's corner into the hole before anything else
+    # rim stalled: the planner first asks to sweep the hole's side (the one sweep it may make),
+    # which may narrow the hole; when that touched nothing, it asks to lower the pad's corner into
+    # the hole before it re-approaches
     pts, normals = disc(0.1, z=0.03, step=0.0015)
     ring = np.linalg.norm(pts[:, :2], axis=1) >= 0.045
     leaf, h = planner_harness((pts[ring], normals[ring]), (0.06, 0.0), height=0.03, table=0.0,
                               reapproach_key="/scan/reapproach", min_coverage=0.95, max_hole_probes=2,
-                              max_sweeps=4)
+                              max_sweeps=1)
     assert h.tick(make_features()) == Status.RUNNING
     for angle in np.linspace(0.0, 2 * math.pi, 72, endpoint=False):
         d = np.array([math.cos(angle), math.sin(angle)])
         leaf.map.close(0.045 * d, 0.005, cause="stall")
         leaf.map.close(0.1 * d, 0.005, cause="tilt")
     leaf.target = None
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("sweeping the side"), leaf.feedback_message
+    py_trees.blackboard.Blackboard.storage["/scan/reapproach"]["result"] = "swept"
+    leaf.initialise()
     _, status = ticks_until_done(h, 10)
     assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
     job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]

@@ -88,7 +88,7 @@ def foot_passes(foot_z: float, band_top_z: float, normal: np.ndarray, step_m: fl
     """How many level passes sweep the band of a face between ``foot_z`` and ``band_top_z``
     (world heights, m; the frontier left above it), and how much higher (m) each pass runs
     than the one before: passes ``step_m`` (m) apart along a face of outward ``normal``
-    (world, unit), the first at ``foot_z``, the last less than a step below the band's top
+    (world, unit), the first at ``foot_z``, the last at most a step below the band's top
     (which the frontier's own samples cover); :data:`_MOST_FOOT_PASSES` at most."""
     rise = step_m * math.hypot(float(normal[0]), float(normal[1]))  # step_m along the face
     if rise <= 0 or band_top_z <= foot_z:
@@ -254,7 +254,7 @@ class BorderSweep(Reapproach):
         at_table = self._at_table()
         carving = not f.in_contact and at_table  # a valley's border down at the table, touching nothing
         if f.in_contact or carving:
-            self._last_contact = self.now
+            self._last_contact = max(self._last_contact, self.now)  # a new pass's allowance stands
             self._pass_contact_s += self.dt
         if f.in_contact and inside <= self.pad.pitch:
             self._record(f)

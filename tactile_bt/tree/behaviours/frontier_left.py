@@ -154,7 +154,7 @@ class FrontierLeft:
         valleys = self.map.valleys(min(self.pad.size_m)) if np.any(reason == VALLEY) else None
         valley = float(np.count_nonzero(valleys)) * self.cell_m**2 if valleys is not None else 0.0
         # the band a probe left along the rim of a hole it found open (not counted as a valley already)
-        rims = self.map.hole_rims() if self.map.empty.any() else None
+        rims = self.map.hole_rims() if self.map.opened.any() else None
         if rims is not None and valleys is not None:
             rims &= ~valleys
         rim = float(np.count_nonzero(rims)) * self.cell_m**2 if rims is not None else 0.0
@@ -359,7 +359,7 @@ class FrontierLeft:
         job["applied"] = True
         if "hole" in job:
             if job["result"] == "open":  # the table seen through it: no surface to scan there
-                self.map.mark_empty(job["hole"]["cells"])
+                self.map.mark_empty(job["hole"]["cells"], opened=True)
             self.ends[f"hole probe: {job['result']}"] += 1
             return
         if "sweep" in job:

@@ -8,6 +8,9 @@ re-approach key, ``{"hole": {"probes": [(xy, R, corner_z), ...], "cells": xy}, "
 the valley's cells a probe found open marks empty): points spread
 over the valley, each with the tilted pose that lowers the pad's corner furthest there without
 any part of the pad coming near the touched surface, and the height the corner may go down to.
+The planner probes a hole wider than the pad (up to twice its width) the same way, where every
+attempt to slide over its rim failed: the pad fits in it, but nothing it touched says whether it
+has a floor.
 
 The ``hole_probe`` leaf lifts the pad off, rises above everything touched, moves over each point
 in turn with the pad tilted corner first (turned a quarter turn about its normal, which the
