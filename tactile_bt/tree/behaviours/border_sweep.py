@@ -52,16 +52,13 @@ from scipy.spatial.transform import Rotation
 from py_trees.common import Status
 
 from tactile_bt.tree.behaviours.contact_points import imprint_points
-from tactile_bt.tree.behaviours.reapproach import Reapproach
+from tactile_bt.tree.behaviours.reapproach import _K_HOLD, Reapproach
 from tactile_bt.tree.blackboard import TIME, read, read_or
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE
 
 __all__ = ["BorderSweep", "level_facing", "foot_passes"]
 
-#: Gains (1/s) of the place and orientation held while sweeping.
-_K_HOLD = 5.0
-_K_TURN = 3.0
 #: The pad starts sweeping this far (m) inside the run's ends, so that its border row covers them.
 _END_INSIDE_M = 0.01
 #: Each pass holds still until it has touched this long (s), for the pressure to settle, before it
@@ -166,10 +163,9 @@ class BorderSweep(Reapproach):
         self._s_end = max(length - (reach - _END_INSIDE_M), length / 2)
         border = np.asarray(run["start"], dtype=float) + along * self._first  # world xy of the border's middle
         level = level_facing(-out, self.pose[:3, :3])
-        if self._kind == "foot":  # any side may face the face: a quarter turn back where the wrist is wound
-            level = self._unwound(level)
         top_z = float(self._job.get("top_z", 0.0))
         if self._kind == "foot":
+            level = self._unwound(level)  # any side may face the face: a quarter turn back where the wrist is wound
             tilt, z = 0.0, float(self._job["foot_z"])
             self._press = -self._out  # sideways onto the face
             self._passes, rise = foot_passes(z, float(run.get("band_top_z", z)), self._normal, self.foot_step_m)
@@ -327,9 +323,7 @@ class BorderSweep(Reapproach):
         if lean_rps:
             self._R = Rotation.from_rotvec(roll * self.dt).as_matrix() @ self._R
         v = _K_HOLD * error + self._press * press_mps + self._along * along_mps + np.cross(roll, T[:3, 3] - border)
-        w = roll + _K_TURN * Rotation.from_matrix(self._R @ T[:3, :3].T).as_rotvec()
-        Rt = T[:3, :3].T
-        self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))
+        self._command_world(v, roll + self._turn_back(self._R))
 
     def _inside(self, f) -> float:
         """How far (m) the centre of pressure lies inside the centre of the border row."""

@@ -37,22 +37,16 @@ import math
 
 import numpy as np
 from py_trees.common import Status
-from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import make_pose
-from tactile_bt.tree.behaviours.reapproach import Reapproach
+from tactile_bt.tree.behaviours.reapproach import _K_HOLD, _STUCK_S, Reapproach
 from tactile_bt.tree.behaviours.table import lowest_corner
 from tactile_bt.tree.blackboard import read_or
 
 __all__ = ["HoleProbe"]
 
-#: Gains (1/s) of the place and orientation held while lowering.
-_K_HOLD = 5.0
-_K_TURN = 3.0
 #: The corner has reached its height within this distance (m).
 _DEPTH_M = 0.0005
-#: Lowering that comes no nearer by a millimetre for this long (s) is stopped by the arm.
-_STUCK_S = 1.0
 #: A valley is open when the pad touched at none of its points and the arm got it to all but
 #: at most this many (a wrist wound near its limit by the turns from one point to the next), and
 #: to two at least.
@@ -135,7 +129,7 @@ class HoleProbe(Reapproach):
         else:
             if corner[2] < self._low[0] - 1e-3:
                 self._low = (float(corner[2]), self.now)
-            if self.now - self._low[1] > _STUCK_S:
+            if self.now - self._low[1] > _STUCK_S:  # no nearer by a millimetre: the arm stops it
                 self._finish("reach")
             else:
                 self._lower(corner)
@@ -144,10 +138,7 @@ class HoleProbe(Reapproach):
     def _lower(self, corner: np.ndarray) -> None:
         """Command the pad straight down at ``approach_speed_mps``, the corner held over its
         point and the pad's orientation held."""
-        T = self.pose
         error = self._corner - corner
         v = _K_HOLD * np.array([error[0], error[1], 0.0])
         v[2] = -min(self.approach_speed_mps, _K_HOLD * max(-error[2], 0.0) + 1e-3)
-        w = _K_TURN * Rotation.from_matrix(self._R @ T[:3, :3].T).as_rotvec()
-        Rt = T[:3, :3].T
-        self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))
+        self._command_world(v, self._turn_back(self._R))

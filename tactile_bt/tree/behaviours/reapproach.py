@@ -56,6 +56,10 @@ _AT_RAD = math.radians(2.0)
 #: Proportional gains of the move to a waypoint (1/s).
 _K_LINEAR = 3.0
 _K_ANGULAR = 3.0
+#: Gains (1/s) of the place and the orientation a subclass holds while it sweeps or lowers the pad
+#: (``border_sweep``, ``hole_probe``).
+_K_HOLD = 5.0
+_K_TURN = 3.0
 #: A move that has come no nearer (by ``_AT_M``, turns counted ``_M_PER_RAD`` m per rad) for
 #: this long (s) is out of the arm's reach: its joints are at their limits.
 _STUCK_S = 1.0
@@ -308,6 +312,15 @@ class Reapproach(TactileBehaviour):
         w = _K_ANGULAR * e_r
         v *= min(1.0, self.speed_mps / max(float(np.linalg.norm(v)), 1e-12))
         w *= min(1.0, self.turn_rps / max(float(np.linalg.norm(w)), 1e-12))
-        Rt = T[:3, :3].T
-        self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))
+        self._command_world(v, w)
         return False
+
+    def _command_world(self, v: np.ndarray, w: np.ndarray) -> None:
+        """Add the twist ``(v, w)`` (world frame; m/s, rad/s) to the command, in the sensor frame."""
+        Rt = self.pose[:3, :3].T
+        self.command.add(self.name, (*(Rt @ v), *(Rt @ w)))
+
+    def _turn_back(self, R: np.ndarray) -> np.ndarray:
+        """The world angular velocity (rad/s) that holds the pad's orientation at ``R`` (world):
+        ``_K_TURN`` times the rotation from the pad's to ``R``."""
+        return _K_TURN * Rotation.from_matrix(R @ self.pose[:3, :3].T).as_rotvec()
