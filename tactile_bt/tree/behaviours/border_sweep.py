@@ -52,7 +52,7 @@ from scipy.spatial.transform import Rotation
 from py_trees.common import Status
 
 from tactile_bt.tree.behaviours.contact_points import imprint_points
-from tactile_bt.tree.behaviours.reapproach import _K_HOLD, Reapproach
+from tactile_bt.tree.behaviours.reapproach import HOLD_GAIN, Reapproach
 from tactile_bt.tree.blackboard import TIME, read, read_or
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE
@@ -322,7 +322,7 @@ class BorderSweep(Reapproach):
         roll = -lean_rps * self._hinge  # about the border's edge: the body rises for lean_rps > 0
         if lean_rps:
             self._R = Rotation.from_rotvec(roll * self.dt).as_matrix() @ self._R
-        v = _K_HOLD * error + self._press * press_mps + self._along * along_mps + np.cross(roll, T[:3, 3] - border)
+        v = HOLD_GAIN * error + self._press * press_mps + self._along * along_mps + np.cross(roll, T[:3, 3] - border)
         self._command_world(v, roll + self._turn_back(self._R))
 
     def _inside(self, f) -> float:

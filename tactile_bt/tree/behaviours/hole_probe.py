@@ -39,7 +39,7 @@ import numpy as np
 from py_trees.common import Status
 
 from tactile_bt.control.spatial import make_pose
-from tactile_bt.tree.behaviours.reapproach import _K_HOLD, _STUCK_S, Reapproach
+from tactile_bt.tree.behaviours.reapproach import HOLD_GAIN, STUCK_S, Reapproach
 from tactile_bt.tree.behaviours.table import lowest_corner
 from tactile_bt.tree.blackboard import read_or
 
@@ -129,7 +129,7 @@ class HoleProbe(Reapproach):
         else:
             if corner[2] < self._low[0] - 1e-3:
                 self._low = (float(corner[2]), self.now)
-            if self.now - self._low[1] > _STUCK_S:  # no nearer by a millimetre: the arm stops it
+            if self.now - self._low[1] > STUCK_S:  # no nearer by a millimetre: the arm stops it
                 self._finish("reach")
             else:
                 self._lower(corner)
@@ -139,6 +139,6 @@ class HoleProbe(Reapproach):
         """Command the pad straight down at ``approach_speed_mps``, the corner held over its
         point and the pad's orientation held."""
         error = self._corner - corner
-        v = _K_HOLD * np.array([error[0], error[1], 0.0])
-        v[2] = -min(self.approach_speed_mps, _K_HOLD * max(-error[2], 0.0) + 1e-3)
+        v = HOLD_GAIN * np.array([error[0], error[1], 0.0])
+        v[2] = -min(self.approach_speed_mps, HOLD_GAIN * max(-error[2], 0.0) + 1e-3)
         self._command_world(v, self._turn_back(self._R))

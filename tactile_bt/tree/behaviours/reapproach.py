@@ -46,7 +46,7 @@ from tactile_bt.tree.blackboard import read_or, turn_room
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
 
-__all__ = ["Reapproach", "REAPPROACH_KEY", "facing"]
+__all__ = ["Reapproach", "REAPPROACH_KEY", "HOLD_GAIN", "STUCK_S", "facing"]
 
 #: Blackboard key of the pending re-approach.
 REAPPROACH_KEY = "/scan/reapproach"
@@ -58,11 +58,11 @@ _K_LINEAR = 3.0
 _K_ANGULAR = 3.0
 #: Gains (1/s) of the place and the orientation a subclass holds while it sweeps or lowers the pad
 #: (``border_sweep``, ``hole_probe``).
-_K_HOLD = 5.0
+HOLD_GAIN = 5.0
 _K_TURN = 3.0
 #: A move that has come no nearer (by ``_AT_M``, turns counted ``_M_PER_RAD`` m per rad) for
 #: this long (s) is out of the arm's reach: its joints are at their limits.
-_STUCK_S = 1.0
+STUCK_S = 1.0
 _M_PER_RAD = 0.03
 #: A probe point near the table stays this far (m) inside the sensing area.
 _INSIDE_M = 0.01
@@ -295,8 +295,8 @@ class Reapproach(TactileBehaviour):
             self._finish("reach")
 
     def _out_of_reach(self) -> bool:
-        """Whether the current move has run out of time or come no nearer for ``_STUCK_S``."""
-        return self.now > self._deadline or self.now - self._progress[1] > _STUCK_S
+        """Whether the current move has run out of time or come no nearer for ``STUCK_S``."""
+        return self.now > self._deadline or self.now - self._progress[1] > STUCK_S
 
     def _move(self, position: np.ndarray, R: np.ndarray) -> bool:
         """Command the twist towards the pose ``(position, R)`` (world); True once there."""
