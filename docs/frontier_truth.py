@@ -84,6 +84,8 @@ def main(argv: list[str] | None = None) -> None:
     where.add_argument("--unseen", help="an object of docs/unseen_scans.py, e.g. torus_wide")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--duration", type=float, default=600.0, help="mission time (s)")
+    parser.add_argument("--param", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                        help="set a parameter of the tree, as tactile-bt run --param does (repeatable)")
     args = parser.parse_args(argv)
     scene_file = args.scene
     if args.unseen:
@@ -91,7 +93,7 @@ def main(argv: list[str] | None = None) -> None:
 
         scene_file = unseen_scans.write_scene(args.unseen, Path(tempfile.mkdtemp(prefix="frontier_truth_")))
     scene = load_scene(scene_file)
-    tree = load_tree(ROOT / "trees/scan_object.yaml", pad=scene.sensor.geometry)
+    tree = load_tree(ROOT / "trees/scan_object.yaml", params=args.param, pad=scene.sensor.geometry)
     result = run_mission(tree, scene, duration=args.duration, seed=args.seed)
     leaf = next(n for n in tree.root.iterate() if isinstance(n, FrontierGuidance))
     m, points = leaf.map, np.asarray(leaf._cloud.points)

@@ -102,6 +102,12 @@ RECORD_OTHER_REGION_SHARE: float = 0.2
 #: ... and while the pad moves into the object along its normal at most this fast (m/s): the
 #: approach's speed. The force servo's own corrections on a curved surface reach a few mm/s.
 RECORD_MAX_APPROACH_MPS: float = 0.01
+#: The spread (tactels, standard deviation across the force image) of a line contact, such as an
+#: edge under a tilted pad, on the simulated pad: the foam's spread and the tactels' width, as the
+#: contact region's threshold leaves it; ``record_contacts {region_spread_px: 0.75}`` draws an
+#: imprint no wider in to its line
+#: (:func:`tactile_bt.tree.behaviours.contact_points.imprint_points`).
+IMPRINT_SPREAD_PX: float = 0.75
 
 #: Approach: speed along the pad normal (m/s) and the pressure that ends it (Pa).
 APPROACH_SPEED_MPS: float = 0.01

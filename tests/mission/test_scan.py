@@ -11,6 +11,7 @@ from numpy.testing import assert_allclose
 from py_trees.common import Status
 from scipy.spatial.transform import Rotation
 
+from tactile_bt import defaults
 from tactile_bt.contacts.cloud import ContactCloud
 from tactile_bt.tree.behaviours import CoverageStalled, RecordContacts, ScanDirection
 from tactile_bt.tree.behaviours.contact_points import imprint_points
@@ -56,6 +57,68 @@ def test_imprint_of_a_pad_half_over_an_edge_ends_at_the_edge():
     points, _ = imprint_points(extract(full))
     assert len(points) == 32 * 32
     assert_allclose(points[:, :2].min(axis=0), [-0.03875, -0.03875])
+
+
+def _edge_under_a_tilted_pad(rng):
+    """Noise-free force image and pose of the pad tilted 25–70° over the +x edge of
+    :func:`pressed_on_box`'s box, turned about its normal and shifted in its plane by part of a
+    tactel, pressed 0.5–2.5 mm in, and the box."""
+    box = Box(size=(0.1, 0.1, 0.05), stiffness=1e5, pose=object_pose((-0.05, 0.0, -0.025)))
+    tilt, phase, yaw, depth = rng.uniform(25, 70), rng.uniform(0, 0.005), rng.uniform(0, 90), rng.uniform(5e-4, 2.5e-3)
+    R = Rotation.from_euler("y", tilt, degrees=True) * DOWN * Rotation.from_euler("z", yaw, degrees=True)
+    n = R.apply([0.0, 0.0, 1.0])
+    shift = R.apply([phase, 0.3 * phase, 0.0])
+    pose = make_pose(R, n * depth + shift - n * (n @ shift))
+    params = SensorParams(noise_counts=0, noise_relative=0, noise_common=0, calibration_spread=0)
+    force, _ = SensorModel(params, np.random.default_rng(0)).force_image(pose, [box])
+    return force, pose, box
+
+
+def test_the_imprint_of_an_edge_under_a_tilted_pad_lies_on_the_edge_not_beside_it():
+    rng = np.random.default_rng(7)
+    beside, on = [], []
+    for _ in range(40):
+        force, pose, box = _edge_under_a_tilted_pad(rng)
+        f = extract(force)
+        if not f.in_contact:
+            continue
+        for spread, out in ((0.0, beside), (defaults.IMPRINT_SPREAD_PX, on)):
+            local, _ = imprint_points(f, spread_px=spread)
+            out.append(box.sdf(local @ pose[:3, :3].T + pose[:3, 3]))
+    beside, on = np.concatenate(beside), np.concatenate(on)
+    assert np.percentile(beside, 99) > 2e-3  # the foam's spread: samples on the pad's plane in the air
+    assert on.max() < 1e-3 and np.percentile(on, 99) < 0.5e-3  # drawn in to the edge
+    assert on.min() > -2.6e-3  # inside by no more than the pad pressed in
+
+
+def test_record_contacts_draws_the_imprint_in_when_told_the_sensor_s_spread():
+    force, pose, _ = _edge_under_a_tilted_pad(np.random.default_rng(3))
+    f = extract(force)
+    h = LeafHarness(RecordContacts(point="region", region_spread_px=defaults.IMPRINT_SPREAD_PX), dt=DT, pose=pose)
+    h.tick(f)
+    local, _ = imprint_points(f, spread_px=defaults.IMPRINT_SPREAD_PX)
+    assert_allclose(h.contacts.points, local @ pose[:3, :3].T + pose[:3, 3], atol=1e-12)
+    assert len(local) == len(imprint_points(f)[0])  # drawn in, none dropped
+
+
+@pytest.mark.parametrize("x_centre", [0.0, -0.045, -0.02])
+def test_a_flat_contact_keeps_its_whole_imprint(x_centre):
+    f = extract(pressed_on_box(x_centre)[0])
+    spread = defaults.IMPRINT_SPREAD_PX
+    assert_allclose(imprint_points(f, spread_px=spread)[0], imprint_points(f)[0], atol=1e-12)
+
+
+@pytest.mark.parametrize("radius", [0.03, 0.06, 0.1])
+def test_a_curved_contact_keeps_most_of_its_width(radius):
+    cylinder = Cylinder(stiffness=1e5, radius=radius, length=0.3, pose=object_pose((0.0, 0.0, -radius), (90, 0, 0)))
+    pose = make_pose(DOWN, (0.0013, 0.0, -1e-3))
+    params = SensorParams(noise_counts=0, noise_relative=0, noise_common=0, calibration_spread=0)
+    force, _ = SensorModel(params, np.random.default_rng(0)).force_image(pose, [cylinder])
+    f = extract(force)
+    width = np.ptp(imprint_points(f)[0][:, 1])
+    local, _ = imprint_points(f, spread_px=defaults.IMPRINT_SPREAD_PX)
+    assert np.ptp(local[:, 1]) >= 0.85 * width  # across the cylinder: the contact is that wide
+    assert np.all(cylinder.sdf(local @ pose[:3, :3].T + pose[:3, 3]) <= 0.0)
 
 
 def test_record_region_points_go_through_the_known_pose():

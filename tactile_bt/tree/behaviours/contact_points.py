@@ -40,9 +40,13 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, POSITIVE_OR_INF, 
 from tactile_bt.perception.features import line_spans_window, local_contact_point
 from tactile_bt.sense.geometry import PadGeometry
 
-__all__ = ["RecordContacts", "imprint_points", "other_contact"]
+__all__ = ["RecordContacts", "drawn_in", "imprint_points", "other_contact"]
 
 _SQRT2 = math.sqrt(2.0)
+#: An imprint reaching at most this many tactels beyond the half-width :func:`drawn_in` finds is
+#: left as it is: the half-peak contour of a flat contact lies on its border to within a fraction
+#: of a tactel, which the strip's width taken from the spread does not match as closely.
+_DRAW_IN_SLACK = 0.25
 
 
 @functools.lru_cache(maxsize=8)
@@ -108,7 +112,40 @@ def _percentile(values: np.ndarray, q: float) -> float:
     return b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma
 
 
-def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tuple[np.ndarray, np.ndarray]:
+def drawn_in(points: np.ndarray, features, spread_px: float) -> np.ndarray:
+    """``points`` ``(k, 2)`` (sensor xy, m) of the imprint of ``features``' contact region drawn in
+    towards its centre of pressure along each principal axis of the region's force image, to
+    the half-width of the uniform strip whose spread, widened by the sensor's own
+    ``spread_px`` (tactels, standard deviation), is the region's (a line contact's imprint, as
+    wide as the sensor's spread, to its line); never pushed out, and left as it is where it
+    reaches less than a quarter tactel beyond that half-width. The foam spreads a contact
+    narrower than a tactel over about a tactel on either side at half its peak: an edge under a
+    tilted pad would otherwise record the pad's plane up to 5 mm beside the edge, in the air."""
+    mask = features.mask
+    rows, cols = np.nonzero(mask)
+    weights = features.image[rows, cols]
+    total = float(weights.sum())
+    if len(points) < 2 or not total > 0.0:
+        return points
+    pad = features.pad
+    xy = pad.px_to_m(np.column_stack((cols, rows)))
+    w = weights / total
+    centre = w @ xy
+    d = xy - centre
+    variance, axes = np.linalg.eigh((w[:, None] * d).T @ d)
+    spread = (spread_px * pad.pitch) ** 2
+    out = points - centre
+    for j in range(2):
+        half = math.sqrt(3.0 * max(0.0, float(variance[j]) - spread))  # a strip of width 2h: variance h²/3
+        u = out @ axes[:, j]
+        reach = float(np.abs(u).max())
+        if reach > half + _DRAW_IN_SLACK * pad.pitch:  # a flat contact's imprint ends on its border already
+            out = out + (half / reach - 1.0) * u[:, None] * axes[:, j]
+    return centre + out
+
+
+def imprint_points(features, level: float = 0.5, step_m: float = 0.0025,
+                   spread_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The whole contact imprint as points in the sensor frame: "the robot as a ruler" (paper
     Sec. IV) applied to every part of the contact region, not only its centre of pressure.
 
@@ -126,6 +163,9 @@ def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tupl
         Fraction of the peak force (0–1).
     step_m : float
         Sample spacing on the pad (m).
+    spread_px : float
+        The sensor's own spread of a line contact (tactels, standard deviation): the samples of
+        a contact no wider are drawn in to its line (:func:`drawn_in`; 0 = as found).
 
     Returns
     -------
@@ -147,7 +187,11 @@ def imprint_points(features, level: float = 0.5, step_m: float = 0.0025) -> tupl
     A_r, A_c, xy = _imprint_grid(pad, float(step_m))
     values = (A_r @ img @ A_c.T).ravel()
     keep = values >= level * peak
-    return xy[keep], values[keep] / pad.tactel_area_m2
+    points = xy[keep]
+    if spread_px > 0.0:
+        points = points.copy()
+        points[:, :2] = drawn_in(points[:, :2], features, spread_px)
+    return points, values[keep] / pad.tactel_area_m2
 
 
 class RecordContacts(TactileBehaviour):
@@ -178,6 +222,14 @@ class RecordContacts(TactileBehaviour):
                              doc="``point: region``: fraction of the contact's peak force where the imprint ends (0–1).")
     region_step_m = Parameter(0.0025, bound=POSITIVE,
                               doc="``point: region``: spacing of the imprint samples on the pad (m).")
+    region_spread_px = Parameter(0.0, bound=NON_NEGATIVE, unit="tactel",
+                                 doc="``point: region``: the spread of a line contact on the sensor (standard "
+                                     "deviation across its force image; 0.75 on the simulated pad, "
+                                     "``defaults.IMPRINT_SPREAD_PX``): an imprint no wider than that, such as an edge "
+                                     "under a tilted pad, is drawn in to its line, and a wider one to the width it "
+                                     "has without the spread (:func:`drawn_in`). 0 = as found: each pass then "
+                                     "covers more, and the samples beside an edge lie up to a tactel off it, in the "
+                                     "air.")
     reconstruct = Parameter("none", type=Literal["none", "auto", "delaunay", "surface", "hull"], fixed=True,
                             doc="Surface reconstruction of the cloud at the end of the mission, written to "
                                 "``surface.ply`` (:mod:`tactile_bt.contacts.reconstruct`): ``none``, ``auto``, "
@@ -348,7 +400,7 @@ class RecordContacts(TactileBehaviour):
 
     def _record_region(self, f, T: np.ndarray) -> None:
         """Add the imprint of ``f`` with the pad at ``T`` to the cloud."""
-        local, pressure = imprint_points(f, self.region_level, self.region_step_m)
+        local, pressure = imprint_points(f, self.region_level, self.region_step_m, self.region_spread_px)
         world = local @ T[:3, :3].T + T[:3, 3]
         if self._floor > -math.inf and len(world):  # never the table's contacts
             above = world[:, 2] > self._floor
