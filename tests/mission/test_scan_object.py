@@ -877,6 +877,21 @@ def test_a_pad_the_arm_holds_where_two_attempts_ended_is_set_down_at_an_open_fro
     assert np.linalg.norm(job["frontier_xy"]) > PAD.half_width_m  # an open frontier away from where it stuck
 
 
+def test_a_pad_stuck_with_no_re_approach_left_still_runs_out_of_targets():
+    # the arm at a joint's limit and no re-approach to ask for: every end comes at the same place
+    leaf, h = _strip_planner()
+    h.set(JOINTS_HELD, (2,))
+    h.tick(make_features())
+    status = Status.RUNNING
+    for _ in range(200):
+        if leaf.target is not None:
+            leaf._block(np.array([0.0, 0.0, 0.05]), "stalled", cause="stall")
+        status = _replan(leaf, h)
+        if status != Status.RUNNING:
+            break
+    assert status != Status.RUNNING and leaf.blocks < 200
+
+
 def _all_frontier_at_the_table(patch, contact):
     """A planner that requires 0.95 of the surface, every frontier of ``patch`` blocked by the
     table; its status once it has chosen again."""

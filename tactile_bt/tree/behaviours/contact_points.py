@@ -117,7 +117,8 @@ def drawn_in(points: np.ndarray, features, spread_px: float) -> np.ndarray:
     towards its centre of pressure along each principal axis of the region's force image, to
     the half-width of the uniform strip whose spread, widened by the sensor's own
     ``spread_px`` (tactels, standard deviation), is the region's (a line contact's imprint, as
-    wide as the sensor's spread, to its line); never pushed out, and left as it is where it
+    wide as the sensor's spread, to its line; a small round contact, such as a corner or a
+    sphere pressed in lightly, towards its centre); never pushed out, and left as it is where it
     reaches less than a quarter tactel beyond that half-width. The foam spreads a contact
     narrower than a tactel over about a tactel on either side at half its peak: an edge under a
     tilted pad would otherwise record the pad's plane up to 5 mm beside the edge, in the air."""

@@ -130,7 +130,9 @@ class FrontierEnds:
         # the arm, not the surface, ended it (a joint at its limit), where it ended the attempt before
         at_limit = held_cause and cause in ("reach", WRIST)
         stuck = at_limit and self._ended_at is not None and math.dist(point[:2], self._ended_at) <= _STUCK_M
-        self._ended_at = point[:2].copy() if at_limit else None
+        # after a stuck end the next end there counts afresh: at most every other end leaves its
+        # target unblocked, so the planner runs out of targets even where no re-approach is left
+        self._ended_at = point[:2].copy() if at_limit and not stuck else None
         if stuck:  # the pad has not got under way: nothing was learnt of the frontier it headed for
             why = f"{why} where the attempt before ended: stuck"
             self.stuck = True
