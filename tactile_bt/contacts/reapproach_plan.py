@@ -60,13 +60,12 @@ class ReapproachPlan:
         with one of them) nearest to ``from_xy`` (world, m) and not within ``radius_m`` of one
         tried before, from :meth:`FrontierMap.classify`'s output; None when there is none.
         ``{"frontier_xy", "out", "probe": (point, normal), "top_z"}`` (world, m). A far probe
-        pending (:meth:`apply`) comes first, while its frontier is still unexplained (without
-        ``reasons``; with them it stays pending)."""
+        pending (:meth:`apply`) comes first, while its frontier is still unexplained."""
         if reasons is None:
             keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
         else:
             keep = np.isin(np.asarray(reason).astype(str), sorted(reasons))
-        if self.far is not None and reasons is None:  # a search for other frontier leaves it pending
+        if self.far is not None:
             job, self.far = self.far, None
             near = np.linalg.norm(m.centre_of(rows, cols) - job["frontier_xy"], axis=1) <= m.cell_m
             if np.any(near & keep):

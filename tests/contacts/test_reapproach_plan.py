@@ -105,15 +105,3 @@ def test_a_probe_that_touched_beyond_the_edge_opens_it_again():
     m, plan, job = _probed_edge(np.random.default_rng(4), touched_x=0.018)
     assert plan.apply(m, job, far_m=0.06, table_z_m=0.0, half_width_m=0.04) == "surface"
     assert plan.far is None
-
-
-def test_a_far_probe_stays_pending_while_other_frontier_is_searched_for():
-    m, plan, job = _probed_edge(np.random.default_rng(3), touched_x=-0.015)
-    assert plan.apply(m, job, far_m=0.06, table_z_m=0.0, half_width_m=0.04) == "near side"
-    rows, cols, out, reason = m.classify(math.radians(65))
-    # a search for open frontier only (a stuck pad's) finds the patch's open side, and the far probe is kept
-    other = plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65), frozenset({""}))
-    assert "approach_m" not in other and other["frontier_xy"][0] < -0.05 and plan.far is not None
-    far = plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65))
-    npt.assert_allclose(far["frontier_xy"], job["frontier_xy"])
-    assert "approach_m" in far

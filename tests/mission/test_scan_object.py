@@ -834,64 +834,6 @@ def test_an_attempt_that_ends_on_the_way_blocks_its_target_and_the_frontier_on_t
     assert not np.any(np.linalg.norm(xy - target, axis=1) < 1e-9)  # the target is out of reach
 
 
-def _strip_planner(**kw):
-    """A strip of touched surface 120 mm along x and 40 mm across; the pad touches at its middle,
-    20 mm from the nearest frontier."""
-    pts, normals = disc(0.06, step=0.001)
-    keep = np.abs(pts[:, 1]) <= 0.02
-    return planner_harness((pts[keep], normals[keep]), (0.0, 0.0), **kw)
-
-
-def _replan(leaf, h, ticks: int = 30) -> Status:
-    """Tick until the planner has a target again or finishes; its status."""
-    status = Status.RUNNING
-    for _ in range(ticks):
-        status = h.tick(make_features())
-        if leaf.target is not None or status != Status.RUNNING:
-            break
-    return status
-
-
-@pytest.mark.parametrize("held", [(2,), ()])
-def test_a_pad_the_arm_holds_where_two_attempts_ended_is_set_down_at_an_open_frontier_elsewhere(held):
-    """A joint at its limit: whichever frontier the pad is sent to, it stays where it is. Without
-    one, stalls at the same place are the surface's (a pad resting across a groove)."""
-    leaf, h = _strip_planner(reapproach_key="/scan/reapproach")
-    h.set(JOINTS_HELD, held)
-    h.tick(make_features())
-    leaf._block(np.array([0.0, 0.0, 0.05]), "stalled", cause="stall")
-    assert _replan(leaf, h) == Status.RUNNING and leaf.target is not None
-    target = leaf._target_xy.copy()
-    assert np.linalg.norm(target) > 0.015  # beyond the block round the pad
-    leaf._block(np.array([0.0005, 0.0, 0.05]), "contact lost", cause="contact lost")
-    rows, cols, _ = leaf._candidates()
-    target_open = np.any(np.linalg.norm(leaf.map.centre_of(rows, cols) - target, axis=1) < 1e-9)
-    if not held:
-        assert not leaf.stuck and not target_open  # the target blocked as before
-        assert _replan(leaf, h) == Status.RUNNING
-        return
-    assert leaf.stuck and "stuck" in leaf.last_end
-    assert target_open  # nothing was learnt of it
-    assert _replan(leaf, h) == Status.FAILURE and leaf.feedback_message.startswith("stuck: re-approaching")
-    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
-    assert np.linalg.norm(job["frontier_xy"]) > PAD.half_width_m  # an open frontier away from where it stuck
-
-
-def test_a_pad_stuck_with_no_re_approach_left_still_runs_out_of_targets():
-    # the arm at a joint's limit and no re-approach to ask for: every end comes at the same place
-    leaf, h = _strip_planner()
-    h.set(JOINTS_HELD, (2,))
-    h.tick(make_features())
-    status = Status.RUNNING
-    for _ in range(200):
-        if leaf.target is not None:
-            leaf._block(np.array([0.0, 0.0, 0.05]), "stalled", cause="stall")
-        status = _replan(leaf, h)
-        if status != Status.RUNNING:
-            break
-    assert status != Status.RUNNING and leaf.blocks < 200
-
-
 def _all_frontier_at_the_table(patch, contact):
     """A planner that requires 0.95 of the surface, every frontier of ``patch`` blocked by the
     table; its status once it has chosen again."""

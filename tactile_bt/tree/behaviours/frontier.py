@@ -176,12 +176,6 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
         self._probed = []  # the valleys probed with the pad's corner (their centres, world xy, m)
-        # where the arm's reach ended the last attempt (world xy), kept when the contact is
-        # touched again
-        self._ended_at: np.ndarray | None = None
-        #: The reach ended two attempts in a row at the same place: the pad is stuck there (a
-        #: re-approach of an open frontier elsewhere lifts it off and sets it down anew).
-        self.stuck = False
         self._state = "waiting for contact"
         self._reset_motion()
 
@@ -214,7 +208,6 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
             self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
             self.sweeps = None
             self._probed = []
-            self._ended_at = None
         n = len(cloud)
         if n > self._seen:
             if self.map is None:
@@ -375,10 +368,6 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                 if not np.any((rows == self.target[0]) & (cols == self.target[1])):
                     self.target = None
             if self.target is None:
-                if self.stuck:
-                    self.stuck = False
-                    if self._asked_move(point, f"{self.last_end} ({self.attempts} targets)"):
-                        return Status.FAILURE
                 if not self._choose(point):
                     self._guide(None)
                     explained = f": {self.explained()}" if self.ends else ""

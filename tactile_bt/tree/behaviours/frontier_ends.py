@@ -12,11 +12,6 @@ turning the pad back a quarter turn may undo), and the pad
 *backs off*, uphill and away from the way it went. A recovering ``table_clearance`` guard's alarm
 and an intervention of the supervisor end an attempt the same way, once per alarm.
 
-An attempt that the arm's reach ends where it ended the attempt before finds the pad *stuck*
-there (a joint at its limit whichever way the pad is sent): it blocks only the frontier where the
-pad is, not its target's, and the planner asks for a re-approach of an open frontier elsewhere,
-which lifts the pad off and sets it down anew.
-
 Layer: tree.
 """
 
@@ -49,10 +44,6 @@ _SINKING_M = 0.0005
 _HELD_CAUSES = frozenset({"stall", "contact lost", "time"})
 #: A joint held at its limit this recently (s) explains those ends.
 _HELD_S = 1.0
-#: An attempt that the arm's reach ends (a stall, a lost contact or a late target while a joint is
-#: held at its limit) within this distance (m, table plane) of where the reach ended the attempt
-#: before finds the pad stuck there, whichever way it is sent.
-_STUCK_M = 0.003
 
 
 class FrontierEnds:
@@ -117,8 +108,7 @@ class FrontierEnds:
             radius, centre = self.local_block_radius_m, point
         d = direction if direction is not None else self.direction if np.any(self.direction) else self._target_out
         cause = cause or why
-        held_cause = cause in _HELD_CAUSES
-        if held_cause and self._held[0] and self.now - self._held[1] <= _HELD_S:
+        if cause in _HELD_CAUSES and self._held[0] and self.now - self._held[1] <= _HELD_S:
             joints = " and ".join(str(j) for j in self._held[0])
             room = turn_room(self.pad)
             if room is not None and self._held[0] == (room.joint,):  # only the pad's turn was stopped
@@ -127,16 +117,7 @@ class FrontierEnds:
                 why, cause = f"{why} with joint {joints} at its limit", "reach"
         self.map.block(centre[:2], radius, d, cause=cause)
         self.map.block(point[:2], 2 * self.cell_m, d, cause=cause)
-        # the arm, not the surface, ended it (a joint at its limit), where it ended the attempt before
-        at_limit = held_cause and cause in ("reach", WRIST)
-        stuck = at_limit and self._ended_at is not None and math.dist(point[:2], self._ended_at) <= _STUCK_M
-        # after a stuck end the next end there counts afresh: at most every other end leaves its
-        # target unblocked, so the planner runs out of targets even where no re-approach is left
-        self._ended_at = point[:2].copy() if at_limit and not stuck else None
-        if stuck:  # the pad has not got under way: nothing was learnt of the frontier it headed for
-            why = f"{why} where the attempt before ended: stuck"
-            self.stuck = True
-        elif self.target is not None:
+        if self.target is not None:
             # the target and the frontier on the way to it, out of reach along this way
             rows, cols, out = self.map.frontier()
             xy = self.map.centre_of(rows, cols)

@@ -217,16 +217,13 @@ class FrontierLeft:
         """Length (m) of the frontier left without an explaining reason."""
         return sum(v for k, v in self.left.items() if k not in EXPLAINING)
 
-    def _reapproach(self, point: np.ndarray, reasons: frozenset | None = None, away_m: float = 0.0) -> dict | None:
+    def _reapproach(self, point: np.ndarray, reasons: frozenset | None = None) -> dict | None:
         """Write a re-approach of the nearest unexplained frontier (or frontier left for one of
-        ``reasons``), not tried before and farther than ``away_m`` from ``point``, to
-        ``reapproach_key`` and return it; None when there is none to try."""
+        ``reasons``) not tried before to ``reapproach_key`` and return it; None when there is
+        none to try."""
         if not self.reapproach_key or len(self.plan.tried) >= self.max_reapproaches:
             return None
         rows, cols, out, reason = self._classify()
-        if away_m > 0.0:
-            near = np.linalg.norm(self.map.centre_of(rows, cols) - point[:2], axis=1) <= away_m
-            reason = np.where(near, GAP, reason)
         job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad,
                                reasons)
         if job is None:
@@ -333,18 +330,6 @@ class FrontierLeft:
             return False
         x, y = job["frontier_xy"] * 1e3
         self.feedback_message = f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm the wrist stopped: {detail}"
-        return True
-
-    def _asked_move(self, point: np.ndarray, detail: str) -> bool:
-        """Ask for a re-approach of the nearest open frontier not tried before and beyond half the
-        pad's width from where the pad is, for a pad stuck there (the arm's reach ended two
-        attempts in a row at the same place, whichever frontier they headed for), and say so in
-        the feedback message; False when there is none to ask for."""
-        job = self._reapproach(point, frozenset({OPEN}), away_m=self.pad.half_width_m)
-        if job is None:
-            return False
-        x, y = job["frontier_xy"] * 1e3
-        self.feedback_message = f"stuck: re-approaching the open frontier at ({x:.0f}, {y:.0f}) mm: {detail}"
         return True
 
     def _asked_sweep(self, point: np.ndarray, detail: str) -> bool:
