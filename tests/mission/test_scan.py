@@ -36,9 +36,15 @@ def pressed_on_box(x_centre: float, box: Box | None = None, depth: float = 2e-4)
     a 100 mm box whose +x face is at x = 0, with the pad centre at ``x_centre``."""
     box = box or Box(size=(0.1, 0.1, 0.05), stiffness=1e5, pose=object_pose((-0.05, 0.0, -0.025)))
     pose = make_pose(DOWN, (x_centre, 0.0, -depth))
+    return noise_free_force(pose, box), pose
+
+
+def noise_free_force(pose: np.ndarray, obj) -> np.ndarray:
+    """The simulated pad's force image (N per tactel) at ``pose`` against ``obj``, without noise
+    or calibration spread."""
     params = SensorParams(noise_counts=0, noise_relative=0, noise_common=0, calibration_spread=0)
-    force, _ = SensorModel(params, np.random.default_rng(0)).force_image(pose, [box])
-    return force, pose
+    force, _ = SensorModel(params, np.random.default_rng(0)).force_image(pose, [obj])
+    return force
 
 
 # --------------------------------------------------------------------------------- contact cloud
@@ -69,9 +75,7 @@ def _edge_under_a_tilted_pad(rng):
     n = R.apply([0.0, 0.0, 1.0])
     shift = R.apply([phase, 0.3 * phase, 0.0])
     pose = make_pose(R, n * depth + shift - n * (n @ shift))
-    params = SensorParams(noise_counts=0, noise_relative=0, noise_common=0, calibration_spread=0)
-    force, _ = SensorModel(params, np.random.default_rng(0)).force_image(pose, [box])
-    return force, pose, box
+    return noise_free_force(pose, box), pose, box
 
 
 def test_the_imprint_of_an_edge_under_a_tilted_pad_lies_on_the_edge_not_beside_it():
@@ -112,9 +116,7 @@ def test_a_flat_contact_keeps_its_whole_imprint(x_centre):
 def test_a_curved_contact_keeps_most_of_its_width(radius):
     cylinder = Cylinder(stiffness=1e5, radius=radius, length=0.3, pose=object_pose((0.0, 0.0, -radius), (90, 0, 0)))
     pose = make_pose(DOWN, (0.0013, 0.0, -1e-3))
-    params = SensorParams(noise_counts=0, noise_relative=0, noise_common=0, calibration_spread=0)
-    force, _ = SensorModel(params, np.random.default_rng(0)).force_image(pose, [cylinder])
-    f = extract(force)
+    f = extract(noise_free_force(pose, cylinder))
     width = np.ptp(imprint_points(f)[0][:, 1])
     local, _ = imprint_points(f, spread_px=defaults.IMPRINT_SPREAD_PX)
     assert np.ptp(local[:, 1]) >= 0.85 * width  # across the cylinder: the contact is that wide

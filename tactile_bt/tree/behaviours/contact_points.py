@@ -188,9 +188,8 @@ def imprint_points(features, level: float = 0.5, step_m: float = 0.0025,
     A_r, A_c, xy = _imprint_grid(pad, float(step_m))
     values = (A_r @ img @ A_c.T).ravel()
     keep = values >= level * peak
-    points = xy[keep]
+    points = xy[keep]  # a new array: drawn in in place
     if spread_px > 0.0:
-        points = points.copy()
         points[:, :2] = drawn_in(points[:, :2], features, spread_px)
     return points, values[keep] / pad.tactel_area_m2
 
