@@ -105,6 +105,9 @@ class FrontierMap:
         self.hollow = np.zeros((self.n, self.n), dtype=bool)
         self.blocked = np.zeros((self.n, self.n, SECTORS), dtype=bool)
         self.cause = np.full((self.n, self.n, SECTORS), -1, dtype=np.int16)
+        #: Index into :attr:`causes` of the reason a re-approach closed the cell for (-1: none,
+        #: see :meth:`close`); it outlasts later blocks, until :meth:`unblock`.
+        self.closed = np.full((self.n, self.n), -1, dtype=np.int16)
         #: The causes of blocks, in the order they first came.
         self.causes: list[str] = []
         self._row_any = np.zeros(self.n, dtype=bool)  # rows / columns holding a sample
@@ -204,7 +207,7 @@ class FrontierMap:
         """Block the cells ``(rows, cols)`` each for crossings in its own direction (``(k, 2)``,
         world xy) and the two neighbouring sectors, for ``cause``."""
         s = sector(np.asarray(directions_xy, dtype=float))
-        c = self._cause_index(cause)
+        c = self._keep_closed(rows, cols, self._cause_index(cause))
         for k in (-1, 0, 1):
             self.blocked[rows, cols, (s + k) % SECTORS] = True
             self.cause[rows, cols, (s + k) % SECTORS] = c
@@ -216,25 +219,34 @@ class FrontierMap:
         sector."""
         d = np.asarray(direction_xy, dtype=float)[:2]
         s = int(sector(d))
-        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
-        r = int(math.ceil(radius_m / self.cell_m))
-        lo = np.maximum(c - r, 0)
-        hi = np.minimum(c + r + 1, self.n)
-        if np.all(hi > lo):
-            rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
-            inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
-            rr, cc = rr[inside], cc[inside]
-        else:
-            rr = cc = np.zeros(0, dtype=int)
+        rr, cc = self._disc(centre_xy, radius_m)
         if rows is not None:
             rr = np.concatenate((rr, np.asarray(rows, dtype=int)))
             cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
         before = int(self.blocked[rr, cc, s].sum())
-        c = self._cause_index(cause)
+        c = self._keep_closed(rr, cc, self._cause_index(cause))
         for k in (s - 1, s, s + 1):
             self.blocked[rr, cc, k % SECTORS] = True
             self.cause[rr, cc, k % SECTORS] = c
         return int(self.blocked[rr, cc, s].sum()) - before
+
+    def _disc(self, centre_xy, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the grid's cells within ``radius_m`` (m, rounded up to cells) of
+        the cell of ``centre_xy`` (world xy)."""
+        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
+        r = int(math.ceil(radius_m / self.cell_m))
+        lo, hi = np.maximum(c - r, 0), np.minimum(c + r + 1, self.n)
+        if np.any(hi <= lo):
+            return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+        rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
+        inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
+        return rr[inside], cc[inside]
+
+    def _keep_closed(self, rows: np.ndarray, cols: np.ndarray, cause: int) -> np.ndarray:
+        """The cause index to write for the cells ``(rows, cols)``: ``cause``, or the reason a
+        re-approach closed the cell for (:meth:`close`)."""
+        closed = self.closed[rows, cols]
+        return np.where(closed >= 0, closed, cause).astype(np.int16)
 
     def valleys(self, max_width_m: float, channels: bool = True) -> np.ndarray:
         """``(n, n)`` bool: the untouched cells of hollows a flat pad ``max_width_m`` wide bridges.
@@ -341,22 +353,22 @@ class FrontierMap:
     def unblock(self, centre_xy, radius_m: float) -> None:
         """Clear the blocks of the cells within ``radius_m`` (m) of ``centre_xy`` (world xy), in
         every direction: the surface there has been reached another way."""
-        c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
-        r = int(math.ceil(radius_m / self.cell_m))
-        lo, hi = np.maximum(c - r, 0), np.minimum(c + r + 1, self.n)
-        if np.any(hi <= lo):
-            return
-        rr, cc = np.mgrid[lo[0]:hi[0], lo[1]:hi[1]]
-        inside = (rr - c[0]) ** 2 + (cc - c[1]) ** 2 <= r * r
-        self.blocked[rr[inside], cc[inside]] = False
-        self.cause[rr[inside], cc[inside]] = -1
+        rr, cc = self._disc(centre_xy, radius_m)
+        self.blocked[rr, cc] = False
+        self.cause[rr, cc] = -1
+        self.closed[rr, cc] = -1
 
     def close(self, centre_xy, radius_m: float, cause: str) -> None:
         """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy) in every direction,
-        for ``cause``."""
+        for ``cause``: what a re-approach found there (the table, the arm's reach). The reason
+        stays the cells' when a slide ends there later (a stall, a lost contact), which says
+        nothing of what lies beyond; :meth:`unblock` clears it."""
+        rr, cc = self._disc(centre_xy, radius_m)
+        self.closed[rr, cc] = -1  # a later re-approach's finding replaces an earlier one
         for k in range(SECTORS):
             angle = 2 * math.pi * k / SECTORS
             self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
+        self.closed[rr, cc] = self._cause_index(cause)
 
     def mean_normal(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Mean outward normal (unit, world, ``(k, 3)``) of the samples in the cells ``(rows,

@@ -18,6 +18,11 @@ table, and the frontier along the pad's width is closed as the table's. The stri
 frontier and the pad's nearest border (3 mm at a corner, up to ``far_m`` less half the pad's
 width at an edge) stays unprobed below the frontier's height.
 
+Frontier that a re-approach near it (within ``radius_m``) did not explain, and that is still
+unexplained when nothing else is left, gets a far probe of its own, not within ``radius_m`` of
+one before: sliding and approaching along its normal have both been tried there, and the far probe
+tells whether anything stands beyond it at all.
+
 Layer: contacts.
 """
 
@@ -53,14 +58,22 @@ class ReapproachPlan:
         self.tried: list[np.ndarray] = []
         #: The far probe to make next (see the module docstring), if any.
         self.far: dict | None = None
+        #: World xy (m) of the frontier cells far-probed so far.
+        self.far_probed: list[np.ndarray] = []
 
     def choose(self, m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, reason: np.ndarray,
-               from_xy: np.ndarray, max_tilt_rad: float, reasons: frozenset | None = None) -> dict | None:
+               from_xy: np.ndarray, max_tilt_rad: float, reasons: frozenset | None = None,
+               far_m: float = 0.0, table_z_m: float = math.nan) -> dict | None:
         """The re-approach of the unexplained frontier cell (or, given ``reasons``, of a cell
         with one of them) nearest to ``from_xy`` (world, m) and not within ``radius_m`` of one
         tried before, from :meth:`FrontierMap.classify`'s output; None when there is none.
         ``{"frontier_xy", "out", "probe": (point, normal), "top_z"}`` (world, m). A far probe
-        pending (:meth:`apply`) comes first, while its frontier is still unexplained."""
+        pending (:meth:`apply`) comes first, while its frontier is still unexplained.
+
+        Without ``reasons``, with ``far_m`` > 0 and the table's height ``table_z_m`` (world, m):
+        when every unexplained cell lies within ``radius_m`` of one tried before, the far probe
+        (centred ``far_m`` beyond it, see :meth:`apply`) of the nearest not within ``radius_m``
+        of one far-probed before."""
         if reasons is None:
             keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
         else:
@@ -77,9 +90,22 @@ class ReapproachPlan:
         for t in self.tried:
             ok &= np.linalg.norm(xy - t, axis=1) > self.radius_m
         if not np.any(ok):
-            return None
-        idx = np.flatnonzero(keep)[ok]
-        xy = xy[ok]
+            if reasons is not None or far_m <= 0 or not math.isfinite(table_z_m):
+                return None
+            ok = np.ones(len(xy), dtype=bool)
+            for t in self.far_probed:
+                ok &= np.linalg.norm(xy - t, axis=1) > self.radius_m
+            if not np.any(ok):
+                return None
+            job = self._nearest(m, rows, cols, out, np.flatnonzero(keep)[ok], xy[ok], from_xy, max_tilt_rad)
+            self.far_probed.append(job["frontier_xy"].copy())
+            return self._far_job(job, far_m, table_z_m)
+        return self._nearest(m, rows, cols, out, np.flatnonzero(keep)[ok], xy[ok], from_xy, max_tilt_rad)
+
+    def _nearest(self, m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, idx: np.ndarray,
+                 xy: np.ndarray, from_xy: np.ndarray, max_tilt_rad: float) -> dict:
+        """The re-approach of the cell ``idx`` (into ``rows``, ...; its centre ``xy``) nearest
+        to ``from_xy``, counted as tried."""
         k = int(np.argmin(np.linalg.norm(xy - np.asarray(from_xy)[:2], axis=1)))
         r, c, o = int(rows[idx[k]]), int(cols[idx[k]]), out[idx[k]]
         normal = clamp_tilt(m.normal_at(r, c), max_tilt_rad)
@@ -102,6 +128,7 @@ class ReapproachPlan:
         radius = self.radius_m
         if job.get("far"):
             radius = max(radius, half_width_m)
+            self.far_probed.append(np.asarray(job["frontier_xy"], dtype=float).copy())
         elif result == "surface" and far_m > 0 and math.isfinite(table_z_m) and "touched" in job:
             beyond = float((np.asarray(job["touched"])[:2] - job["frontier_xy"]) @ job["out"])
             if beyond < m.cell_m:  # landed on the touched side: nothing found beyond
@@ -115,8 +142,13 @@ class ReapproachPlan:
 
     def _plan_far(self, job: dict, far_m: float, table_z_m: float) -> None:
         """Make the far probe of ``job``'s frontier the next re-approach (see :meth:`apply`)."""
+        self.far = self._far_job(job, far_m, table_z_m)
+
+    @staticmethod
+    def _far_job(job: dict, far_m: float, table_z_m: float) -> dict:
+        """The far probe of ``job``'s frontier (see :meth:`apply`)."""
         point = np.asarray(job["probe"][0], dtype=float)
         xy = job["frontier_xy"] + job["out"] * far_m
-        self.far = {"frontier_xy": job["frontier_xy"].copy(), "out": job["out"].copy(), "far": True,
+        return {"frontier_xy": job["frontier_xy"].copy(), "out": job["out"].copy(), "far": True,
                     "probe": (np.array([xy[0], xy[1], point[2]]), np.array([0.0, 0.0, 1.0])),
                     "approach_m": max(float(point[2] - table_z_m), 0.0), "top_z": job["top_z"]}

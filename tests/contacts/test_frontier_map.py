@@ -49,6 +49,19 @@ def test_blocking_covers_a_disc_and_the_neighbouring_directions_only():
     assert not m.blocked[r[1], c[1]].any()
 
 
+def test_what_a_re_approach_found_outlasts_a_later_slide_ending_there_until_the_surface_is_found():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)
+    m.add(*disc(0.03))
+    m.close((0.03, 0.0), 0.01, "table")                # a probe beyond came down to the table
+    m.block((0.03, 0.0), 0.006, (1.0, 0.0), cause="stall")  # a slide stalled there since
+    rows, cols, out, reason = m.classify(math.radians(60))
+    near = np.linalg.norm(m.centre_of(rows, cols) - (0.03, 0.0), axis=1) < 0.006
+    assert set(reason[near]) - {GAP} == {"table"}
+    m.unblock((0.03, 0.0), 0.01)                          # a re-approach found the surface beyond
+    m.block((0.03, 0.0), 0.006, (1.0, 0.0), cause="stall")
+    rows, cols, out, reason = m.classify(math.radians(60))
+    near = np.linalg.norm(m.centre_of(rows, cols) - (0.03, 0.0), axis=1) < 0.006
+    assert "stall" in set(reason[near]) and "table" not in set(reason[near])
 
 
 def test_the_frontier_left_is_explained_by_the_table_the_tilt_and_the_blocks_causes():

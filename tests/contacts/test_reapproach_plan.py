@@ -105,3 +105,55 @@ def test_a_probe_that_touched_beyond_the_edge_opens_it_again():
     m, plan, job = _probed_edge(np.random.default_rng(4), touched_x=0.018)
     assert plan.apply(m, job, far_m=0.06, table_z_m=0.0, half_width_m=0.04) == "surface"
     assert plan.far is None
+
+
+
+def _left(m, job):
+    """:meth:`FrontierMap.classify`'s output with every frontier cell farther than 15 mm from
+    ``job``'s explained (taken for the table's): only the stretch near the probed place is left."""
+    rows, cols, out, reason = m.classify(math.radians(65))
+    far = np.linalg.norm(m.centre_of(rows, cols) - job["frontier_xy"], axis=1) > 0.015
+    reason = reason.astype(object)
+    reason[far & (reason != GAP)] = "table"
+    return rows, cols, out, reason
+
+
+def _edge_probed_and_stalled_again(rng):
+    """The edge of :func:`_probed_edge`, probed once (the probe found the surface and opened it
+    again), then stalled at once more within 20 mm of that probe; nothing else is left."""
+    m, plan, job = _probed_edge(rng, touched_x=0.018)
+    plan.apply(m, job, far_m=0.06, table_z_m=0.0, half_width_m=0.04)
+    m.block(job["frontier_xy"], 0.015, (1.0, 0.0), cause="stall")
+    return m, plan, job
+
+
+def test_frontier_a_re_approach_did_not_explain_is_probed_far_beyond_once_nothing_else_is_left():
+    m, plan, job = _edge_probed_and_stalled_again(np.random.default_rng(5))
+    rows, cols, out, reason = _left(m, job)
+    assert "stall" in set(reason)
+    # without the table's height the plan has nothing left to try there
+    assert plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65)) is None
+    far = plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65),
+                      far_m=0.06, table_z_m=0.0)
+    assert far is not None and far["far"]
+    assert np.linalg.norm(far["frontier_xy"] - job["frontier_xy"]) <= 0.015
+    point, normal = far["probe"]
+    assert point[0] > far["frontier_xy"][0] + 0.055               # the whole pad beyond the edge,
+    npt.assert_allclose(normal, [0.0, 0.0, 1.0])                  # level,
+    npt.assert_allclose(far["approach_m"], 0.05, atol=0.002)      # lowered down to the table
+    far["result"] = "table"
+    plan.apply(m, far, far_m=0.06, table_z_m=0.0, half_width_m=0.04)
+    rows, cols, out, reason = _left(m, job)
+    assert "stall" not in set(reason)                             # the table explains it now
+
+
+def test_a_frontier_far_probed_once_is_not_far_probed_again():
+    m, plan, job = _edge_probed_and_stalled_again(np.random.default_rng(6))
+    kw = dict(far_m=0.06, table_z_m=0.0)
+    far = plan.choose(m, *_left(m, job), np.array([-0.01, 0.0]), math.radians(65), **kw)
+    far["result"] = "surface"                                     # something stands beyond: slide there again
+    plan.apply(m, far, far_m=0.06, table_z_m=0.0, half_width_m=0.04)
+    m.block(job["frontier_xy"], 0.015, (1.0, 0.0), cause="stall")  # and it stalled once more
+    rows, cols, out, reason = _left(m, job)
+    assert "stall" in set(reason)
+    assert plan.choose(m, rows, cols, out, reason, np.array([-0.01, 0.0]), math.radians(65), **kw) is None

@@ -666,6 +666,64 @@ def test_an_unexplained_frontier_is_re_approached_once_and_what_it_found_is_appl
     assert leaf.ends["re-approach: table"] == 1
 
 
+
+def _rim_explained_but_an_arc(leaf, radius_m, half_angle_rad):
+    """Close the rim of a touched disc as the table's, but for an arc at +x of ``half_angle_rad``
+    either side, where slides stalled."""
+    for angle in np.linspace(-math.pi, math.pi, 144, endpoint=False):
+        d = np.array([math.cos(angle), math.sin(angle)])
+        if abs(angle) > half_angle_rad + 0.1:
+            leaf.map.close(radius_m * d, 0.006, cause="table")
+        elif abs(angle) <= half_angle_rad:
+            leaf.map.block(radius_m * d, 0.006, d, cause="stall")
+
+
+def test_frontier_a_re_approach_reopened_and_a_slide_stalled_at_again_is_probed_far_beyond():
+    # a level disc 50 mm above the table, its rim explained by the table but for a 25 mm arc: it
+    # is re-approached, the surface found there, and a slide stalls on the same arc again
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0), table=0.0, reapproach_key="/scan/reapproach",
+                              min_coverage=0.95)
+    assert h.tick(make_features()) == Status.RUNNING
+    _rim_explained_but_an_arc(leaf, 0.02, 0.6)
+    leaf.target = None
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("re-approaching the frontier")
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    job["result"] = "surface"
+    leaf.initialise()
+    h.tick(make_features())
+    _rim_explained_but_an_arc(leaf, 0.02, 0.6)
+    leaf.target = None
+    _, status = ticks_until_done(h, 10)
+    # nothing else left, the arc within 20 mm of the re-approach: a level pad lowered beyond it
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing beyond the frontier"), \
+        leaf.feedback_message
+    far = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    assert far["far"] and np.linalg.norm(far["frontier_xy"] - job["frontier_xy"]) <= 0.02
+    assert far["approach_m"] == pytest.approx(0.05, abs=0.003)
+    # it came down to the table touching nothing: the arc is explained, and the scan is done
+    far["result"] = "table"
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.SUCCESS, leaf.feedback_message
+    assert not leaf.frontier_left()["unexplained"]
+    assert leaf.ends["far re-approach: table"] == 1
+
+
+def test_more_unexplained_frontier_than_a_far_probe_closes_is_not_far_probed():
+    # the same on a disc of 50 mm with 100 mm of its rim stalled, every part of it re-approached
+    leaf, h = planner_harness(disc(0.05, step=0.002), (0.0, 0.0), table=0.0, reapproach_key="/scan/reapproach",
+                              min_coverage=0.95)
+    assert h.tick(make_features()) == Status.RUNNING
+    _rim_explained_but_an_arc(leaf, 0.05, 1.0)
+    leaf.plan.tried = [0.05 * np.array([math.cos(a), math.sin(a)]) for a in np.linspace(-1.0, 1.0, 8)]
+    leaf.target = None
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("no reachable frontier left, but"), \
+        leaf.feedback_message
+    assert sum(leaf.frontier_left()["unexplained"].values()) > 0.08
+    assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"] == {"verdict": leaf.feedback_message}
+
 def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_open_explains_it():
     # a level ring 30 mm above the table, its hole 90 mm across (wider than the pad, which
     # slides over no rim into it); the outer rim too steep to go on, every attempt at the inner

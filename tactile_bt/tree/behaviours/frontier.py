@@ -393,7 +393,8 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                         job = self._reapproach(point)
                         if job is not None:
                             x, y = job["frontier_xy"] * 1e3
-                            self.feedback_message = (f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm: {left} "
+                            what = "probing beyond" if job.get("far") else "re-approaching"
+                            self.feedback_message = (f"{what} the frontier at ({x:.0f}, {y:.0f}) mm: {left} "
                                                      f"({counts})")
                             return Status.FAILURE
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"

@@ -220,17 +220,29 @@ class FrontierLeft:
     def _reapproach(self, point: np.ndarray, reasons: frozenset | None = None) -> dict | None:
         """Write a re-approach of the nearest unexplained frontier (or frontier left for one of
         ``reasons``) not tried before to ``reapproach_key`` and return it; None when there is
-        none to try."""
+        none to try. When the estimated coverage reaches ``min_coverage`` and at most the pad's
+        width of frontier is unexplained, frontier tried before gets a far probe (:class:`~tactile_bt.contacts.reapproach_plan.ReapproachPlan`)."""
         if not self.reapproach_key or len(self.plan.tried) >= self.max_reapproaches:
             return None
         rows, cols, out, reason = self._classify()
+        # frontier tried before is far-probed only where explaining it is all the scan lacks, and
+        # no more of it is left than one far probe closes (the pad's width): a far probe tells an
+        # edge that drops away, it does not explore (lowered blind beside a bulging side, it
+        # presses under the bulge)
+        last = self.coverage >= self.min_coverage and self.unexplained_m() <= min(self.pad.size_m)
+        far_m = self._far_m() if last else 0.0
         job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad,
-                               reasons)
+                               reasons, far_m=far_m, table_z_m=self.table_z_m)
         if job is None:
             return None
         job["home"] = (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())  # the pad as it lies now
         write(self.reapproach_key, job)
         return job
+
+    def _far_m(self) -> float:
+        """How far (m) beyond its frontier a far probe's pad is centred: its nearest corner
+        :data:`_FAR_M` beyond it."""
+        return self.pad.half_diagonal_m + self.corner_margin_m + _FAR_M
 
     def _sweep(self, point: np.ndarray) -> dict | None:
         """Write a border sweep to ``reapproach_key`` and return it: of the nearest run of foot
@@ -367,6 +379,6 @@ class FrontierLeft:
                 self.map.mark_empty(np.vstack(job["empty"]))
             self.ends[f"{job['sweep'].get('kind', 'border')} sweep: {job['result']}"] += 1
             return
-        result = self.plan.apply(self.map, job, far_m=self.pad.half_diagonal_m + self.corner_margin_m + _FAR_M,
+        result = self.plan.apply(self.map, job, far_m=self._far_m(),
                                  table_z_m=self.table_z_m, half_width_m=0.5 * min(self.pad.size_m))
         self.ends[f"{'far ' if job.get('far') else ''}re-approach: {result}"] += 1
