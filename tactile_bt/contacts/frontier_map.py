@@ -86,7 +86,7 @@ class FrontierMap:
     Each cell holds the number of contact samples in it, the sum of their outward normals and the
     highest sample; ``blocked[row, col, sector]`` marks the directions in which an attempt to
     cross the cell has failed, and ``cause[row, col, sector]`` indexes :attr:`causes`: why it
-    failed there last (-1: never).
+    failed there last (-1: never), or what a re-approach found there (:meth:`close`).
     """
 
     def __init__(self, centre_xy, cell_m: float = 0.002, extent_m: float = 0.3) -> None:
@@ -243,8 +243,10 @@ class FrontierMap:
         return rr[inside], cc[inside]
 
     def _keep_closed(self, rows: np.ndarray, cols: np.ndarray, cause: int) -> np.ndarray:
-        """The cause index to write for the cells ``(rows, cols)``: ``cause``, or the reason a
-        re-approach closed the cell for (:meth:`close`)."""
+        """The cause index to write for the cells ``(rows, cols)``: ``cause``, or, where it
+        explains nothing, the explaining reason a re-approach closed the cell for (:meth:`close`)."""
+        if self.causes[cause] in EXPLAINING:
+            return np.full(len(np.atleast_1d(rows)), cause, dtype=np.int16)
         closed = self.closed[rows, cols]
         return np.where(closed >= 0, closed, cause).astype(np.int16)
 
@@ -360,15 +362,16 @@ class FrontierMap:
 
     def close(self, centre_xy, radius_m: float, cause: str) -> None:
         """Block the cells within ``radius_m`` (m) of ``centre_xy`` (world xy) in every direction,
-        for ``cause``: what a re-approach found there (the table, the arm's reach). The reason
-        stays the cells' when a slide ends there later (a stall, a lost contact), which says
-        nothing of what lies beyond; :meth:`unblock` clears it."""
+        for ``cause``: what a re-approach found there. An explaining reason (the table, the arm's
+        reach: :data:`EXPLAINING`) stays the cells' when a slide ends there later for a reason
+        that explains nothing (a stall, a lost contact), which says nothing of what lies beyond;
+        a later explaining end replaces it, and :meth:`unblock` or another ``close`` clears it."""
         rr, cc = self._disc(centre_xy, radius_m)
         self.closed[rr, cc] = -1  # a later re-approach's finding replaces an earlier one
         for k in range(SECTORS):
             angle = 2 * math.pi * k / SECTORS
             self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
-        self.closed[rr, cc] = self._cause_index(cause)
+        self.closed[rr, cc] = self._cause_index(cause) if cause in EXPLAINING else -1
 
     def mean_normal(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Mean outward normal (unit, world, ``(k, 3)``) of the samples in the cells ``(rows,

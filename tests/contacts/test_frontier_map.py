@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import numpy.testing as npt
+import pytest
 
 from scipy import ndimage
 
@@ -62,6 +63,20 @@ def test_what_a_re_approach_found_outlasts_a_later_slide_ending_there_until_the_
     rows, cols, out, reason = m.classify(math.radians(60))
     near = np.linalg.norm(m.centre_of(rows, cols) - (0.03, 0.0), axis=1) < 0.006
     assert "stall" in set(reason[near]) and "table" not in set(reason[near])
+
+
+@pytest.mark.parametrize("found, later, reason", [("nothing", "reach", "reach"), ("table", "wrist", "wrist"),
+                                                  ("nothing", "stall", "stall")])
+def test_only_an_explaining_finding_outlasts_a_later_end_and_an_explaining_end_replaces_it(found, later, reason):
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)
+    m.add(*disc(0.03))
+    m.close((0.03, 0.0), 0.01, found)
+    rows, cols, out = m.frontier()
+    near = np.linalg.norm(m.centre_of(rows, cols) - (0.03, 0.0), axis=1) < 0.006
+    m.block_cells(rows[near], cols[near], out[near], cause=later)
+    got = m.classify(math.radians(60))[3]
+    near = np.linalg.norm(m.centre_of(*m.classify(math.radians(60))[:2]) - (0.03, 0.0), axis=1) < 0.006
+    assert set(got[near]) - {GAP} == {reason}
 
 
 def test_the_frontier_left_is_explained_by_the_table_the_tilt_and_the_blocks_causes():

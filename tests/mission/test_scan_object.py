@@ -678,9 +678,10 @@ def _rim_explained_but_an_arc(leaf, radius_m, half_angle_rad):
             leaf.map.block(radius_m * d, 0.006, d, cause="stall")
 
 
-def test_frontier_a_re_approach_reopened_and_a_slide_stalled_at_again_is_probed_far_beyond():
-    # a level disc 50 mm above the table, its rim explained by the table but for a 25 mm arc: it
-    # is re-approached, the surface found there, and a slide stalls on the same arc again
+def _re_approached_and_stalled_again():
+    """A level disc 50 mm above the table, its rim explained by the table but for a 25 mm arc:
+    it is re-approached, the surface found there, and a slide stalls on the same arc again.
+    Returns the leaf, its harness, the re-approach and the status after it."""
     leaf, h = planner_harness(disc(0.02), (0.0, 0.0), table=0.0, reapproach_key="/scan/reapproach",
                               min_coverage=0.95)
     assert h.tick(make_features()) == Status.RUNNING
@@ -695,6 +696,11 @@ def test_frontier_a_re_approach_reopened_and_a_slide_stalled_at_again_is_probed_
     _rim_explained_but_an_arc(leaf, 0.02, 0.6)
     leaf.target = None
     _, status = ticks_until_done(h, 10)
+    return leaf, h, job, status
+
+
+def test_frontier_a_re_approach_reopened_and_a_slide_stalled_at_again_is_probed_far_beyond():
+    leaf, h, job, status = _re_approached_and_stalled_again()
     # nothing else left, the arc within 20 mm of the re-approach: a level pad lowered beyond it
     assert status == Status.FAILURE and leaf.feedback_message.startswith("probing beyond the frontier"), \
         leaf.feedback_message
@@ -708,6 +714,17 @@ def test_frontier_a_re_approach_reopened_and_a_slide_stalled_at_again_is_probed_
     assert status == Status.SUCCESS, leaf.feedback_message
     assert not leaf.frontier_left()["unexplained"]
     assert leaf.ends["far re-approach: table"] == 1
+
+
+def test_frontier_tried_before_is_not_far_probed_while_the_estimate_falls_short(monkeypatch):
+    from tactile_bt.tree.behaviours import frontier_left
+
+    monkeypatch.setattr(frontier_left, "untouched_beyond", lambda *a, **k: 1e-3)  # 10 cm² taken to lie beyond
+    leaf, h, job, status = _re_approached_and_stalled_again()
+    assert leaf.coverage < 0.95
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("no reachable frontier left, but"), \
+        leaf.feedback_message
+    assert "stall" in leaf.frontier_left()["unexplained"]
 
 
 def test_more_unexplained_frontier_than_a_far_probe_closes_is_not_far_probed():
