@@ -367,11 +367,10 @@ class FrontierMap:
         that explains nothing (a stall, a lost contact), which says nothing of what lies beyond;
         a later explaining end replaces it, and :meth:`unblock` or another ``close`` clears it."""
         rr, cc = self._disc(centre_xy, radius_m)
-        self.closed[rr, cc] = -1  # a later re-approach's finding replaces an earlier one
-        for k in range(SECTORS):
-            angle = 2 * math.pi * k / SECTORS
-            self.block(centre_xy, radius_m, (math.cos(angle), math.sin(angle)), cause=cause)
-        self.closed[rr, cc] = self._cause_index(cause) if cause in EXPLAINING else -1
+        c = self._cause_index(cause)  # a later re-approach's finding replaces an earlier one
+        self.blocked[rr, cc] = True
+        self.cause[rr, cc] = c
+        self.closed[rr, cc] = c if cause in EXPLAINING else -1
 
     def mean_normal(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Mean outward normal (unit, world, ``(k, 3)``) of the samples in the cells ``(rows,

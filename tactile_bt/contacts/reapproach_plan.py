@@ -86,21 +86,25 @@ class ReapproachPlan:
         if not np.any(keep):
             return None
         xy = m.centre_of(rows[keep], cols[keep])
-        ok = np.ones(len(xy), dtype=bool)
-        for t in self.tried:
-            ok &= np.linalg.norm(xy - t, axis=1) > self.radius_m
+        ok = self._away(xy, self.tried)
         if not np.any(ok):
             if reasons is not None or far_m <= 0 or not math.isfinite(table_z_m):
                 return None
-            ok = np.ones(len(xy), dtype=bool)
-            for t in self.far_probed:
-                ok &= np.linalg.norm(xy - t, axis=1) > self.radius_m
+            ok = self._away(xy, self.far_probed)
             if not np.any(ok):
                 return None
             job = self._nearest(m, rows, cols, out, np.flatnonzero(keep)[ok], xy[ok], from_xy, max_tilt_rad)
             self.far_probed.append(job["frontier_xy"].copy())
             return self._far_job(job, far_m, table_z_m)
         return self._nearest(m, rows, cols, out, np.flatnonzero(keep)[ok], xy[ok], from_xy, max_tilt_rad)
+
+    def _away(self, xy: np.ndarray, places: list[np.ndarray]) -> np.ndarray:
+        """``(k,)`` bool: which of the points ``xy`` ``(k, 2)`` lie farther than ``radius_m``
+        from every one of ``places`` (world xy, m)."""
+        ok = np.ones(len(xy), dtype=bool)
+        for t in places:
+            ok &= np.linalg.norm(xy - t, axis=1) > self.radius_m
+        return ok
 
     def _nearest(self, m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.ndarray, idx: np.ndarray,
                  xy: np.ndarray, from_xy: np.ndarray, max_tilt_rad: float) -> dict:
@@ -150,5 +154,5 @@ class ReapproachPlan:
         point = np.asarray(job["probe"][0], dtype=float)
         xy = job["frontier_xy"] + job["out"] * far_m
         return {"frontier_xy": job["frontier_xy"].copy(), "out": job["out"].copy(), "far": True,
-                    "probe": (np.array([xy[0], xy[1], point[2]]), np.array([0.0, 0.0, 1.0])),
-                    "approach_m": max(float(point[2] - table_z_m), 0.0), "top_z": job["top_z"]}
+                "probe": (np.array([xy[0], xy[1], point[2]]), np.array([0.0, 0.0, 1.0])),
+                "approach_m": max(float(point[2] - table_z_m), 0.0), "top_z": job["top_z"]}

@@ -221,7 +221,8 @@ class FrontierLeft:
         """Write a re-approach of the nearest unexplained frontier (or frontier left for one of
         ``reasons``) not tried before to ``reapproach_key`` and return it; None when there is
         none to try. When the estimated coverage reaches ``min_coverage`` and at most the pad's
-        width of frontier is unexplained, frontier tried before gets a far probe (:class:`~tactile_bt.contacts.reapproach_plan.ReapproachPlan`)."""
+        width of frontier is unexplained, frontier tried before gets a far probe
+        (:class:`~tactile_bt.contacts.reapproach_plan.ReapproachPlan`)."""
         if not self.reapproach_key or len(self.plan.tried) >= self.max_reapproaches:
             return None
         rows, cols, out, reason = self._classify()
