@@ -91,6 +91,16 @@ SERVO_CHATTER_RECOVER_S: float = 1.0
 SERVO_CHATTER_GAIN_MIN: float = 0.3
 #: Time constant of the low-pass on a servo output at full chatter (s).
 SERVO_CHATTER_SMOOTH_S: float = 0.1
+#: A pad rocks between two contacts (tactile_bt.control.chatter.RockingDetector) when the largest
+#: region's centre of pressure jumps by more than this share of the pad's width, another region
+#: under the pad, ...
+ROCKING_JUMP_SHARE: float = 0.5
+#: ... this many times ...
+ROCKING_CHANGES: int = 2
+#: ... within this time (s).
+ROCKING_WINDOW_S: float = 0.5
+#: roll_to holds the tilt of a rocking pad that the supervisor has pulled back within this time (s).
+ROCKING_PULLED_BACK_S: float = 1.0
 
 # --- Contacts recorded only when settled (tactile_bt.tree.behaviours.contact_points) ----------
 #: record_contacts records while the smoothed pressure is at most this many times the target ...

@@ -2,6 +2,11 @@
 and damped (gain reduced, output low-passed) until it stops. Every servo leaf applies it to its
 PID's outputs (:class:`tactile_bt.tree.behaviours.base.ServoLeaf`).
 
+A pad rocking between two contacts (:class:`RockingDetector`): the largest contact region
+changing sides again and again, as a flat pad bridging a hollow does when it rolls towards
+whichever rim bears more. The rolling leaf holds the pad's tilt while it lasts
+(:class:`tactile_bt.tree.behaviours.placement.RollTo`).
+
 Layer: control.
 """
 
@@ -10,7 +15,7 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-__all__ = ["ChatterDamper"]
+__all__ = ["ChatterDamper", "RockingDetector"]
 
 
 class ChatterDamper:
@@ -88,3 +93,55 @@ class ChatterDamper:
                 out[i] = y
             outputs[i] = out[i]
         return out
+
+
+class RockingDetector:
+    """Tells a pad rocking between two contacts: the largest region's centre of pressure jumping
+    by more than ``jump_share`` of the pad's width from one cycle to the next, with another
+    region under the pad (a change of side), ``changes`` times within the last ``window_s``, and
+    for ``hold_s`` after that no longer holds. A flat pad resting on the two
+    rims of a hollow narrower than itself bears them in turn: rolled towards the one that bears
+    more, it presses the other, which then bears more. Rolling cannot centre such a contact; it
+    only rocks the pad from rim to rim, pressing each rim's narrow contact hard in turn.
+
+    Parameters
+    ----------
+    jump_share : float
+        Share of the pad's smaller width (0–1) the centre of pressure must jump.
+    changes : int
+        Changes of side within ``window_s`` that make it rocking.
+    window_s : float
+        Time window of the changes (s).
+    hold_s : float
+        The pad counts as rocking until this long after fewer than ``changes`` changes lie
+        within ``window_s`` (s).
+    """
+
+    def __init__(self, jump_share: float, changes: int, window_s: float, hold_s: float) -> None:
+        self.jump_share, self.changes = float(jump_share), int(changes)
+        self.window_s, self.hold_s = float(window_s), float(hold_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """No history (called when a leaf starts)."""
+        self._last_xy: tuple[float, float] | None = None
+        self._times: list[float] = []
+        self._until = -math.inf
+
+    def update(self, now: float, in_contact: bool, cop_xy: tuple[float, float], others: bool,
+               width_m: float) -> bool:
+        """Whether the pad rocks at ``now`` (s), given this cycle's contact: ``cop_xy`` the
+        largest region's centre of pressure (m, sensor frame), ``others`` whether another region
+        is under the pad, ``width_m`` the pad's smaller width (m)."""
+        x, y = cop_xy
+        last = self._last_xy
+        times = self._times
+        if in_contact and others and last is not None and \
+                math.hypot(x - last[0], y - last[1]) > self.jump_share * width_m:
+            times.append(now)
+        self._last_xy = (x, y) if in_contact else None
+        while times and now - times[0] > self.window_s:
+            times.pop(0)
+        if len(times) >= self.changes:
+            self._until = now + self.hold_s
+        return now < self._until

@@ -339,6 +339,41 @@ def test_with_all_regions_a_pad_bridging_two_contacts_servos_their_common_centre
     assert np.linalg.norm(twists[True][0]) < 0.2 * np.linalg.norm(twists[False][0])
 
 
+@pytest.mark.parametrize("hold_s, pulled_back", [(0.3, True), (0.0, True), (0.3, False)])
+def test_roll_to_holds_the_tilt_while_the_pad_rocks_between_two_rims(hold_s, pulled_back):
+    """A flat pad resting on two opposite corners, the load passing from one to the other every
+    60 ms: rolled towards the larger contact, the pad would press the other, which then bears
+    more. Once the supervisor has pulled the pad back, the leaf stops adding a roll when the
+    contact has changed sides twice, and rolls again once one contact stays. With
+    ``rocking_hold_s: 0``, or without the supervisor's pull-back, it never stops."""
+    from tactile_bt.perception.synthetic import blob_contact
+    from tactile_bt.tree.behaviours.supervision import publish_supervision
+
+    def frame(first_share: float) -> np.ndarray:
+        return blob_contact((1.0, 1.0), 0.8, 2.0 * first_share) + blob_contact((14.0, 14.0), 0.8, 2.0 * (1 - first_share))
+
+    leaf = RollTo(target_key="/test/cop", kp=6.0, output_limit=0.06, rocking_hold_s=hold_s)
+    h = LeafHarness(leaf)
+    h.set("/test/cop", (0.0, 0.0))
+    publish_supervision(pulled_back, "pressure 4100 Pa above the limit 4000 Pa" if pulled_back else "")
+    rolls = []
+    for k in range(6):  # three changes of side each way
+        for _ in range(15):
+            h.tick(frame=frame(0.6 if k % 2 == 0 else 0.4))
+            rolls.append(h.twist_of(leaf)[2:5].copy())
+    rolls = np.array(rolls)
+    publish_supervision(False, "")
+    if hold_s and pulled_back:
+        assert np.abs(rolls[:15]).max() > 0  # rolling towards the first corner
+        assert_allclose(rolls[31:], 0.0)      # from the second change on: the tilt held
+        assert "rocks between two contacts" in leaf.feedback_message
+    else:
+        assert np.sign(rolls[14, 1]) == -np.sign(rolls[29, 1]) == np.sign(rolls[44, 1])  # rocking
+    for _ in range(int((0.5 + hold_s) / h.dt) + 5):  # one contact stays: rolling again
+        h.tick(frame=blob_contact((1.0, 1.0), 0.8, 1.2))
+    assert np.abs(h.twist_of(leaf)[3:5]).max() > 0
+
+
 def test_square_to_slope_turns_an_edge_downhill():
     leaf = SquareToSlope(kp=2.0, output_limit=10.0)
     yaw = 30.0

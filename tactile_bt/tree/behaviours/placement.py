@@ -25,12 +25,15 @@ import math
 import numpy as np
 from py_trees.common import Access, Status
 
+from tactile_bt import defaults
+from tactile_bt.control.chatter import RockingDetector
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.servo import Centre, Roll
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
-from tactile_bt.tree.blackboard import read, write
+from tactile_bt.tree.behaviours.supervision import RETREATING
+from tactile_bt.tree.blackboard import read, read_or, write
 from tactile_bt.tree.declaration import Parameter
-from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
+from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, Bound, between, normalise_key
 
 __all__ = ["TableOffset", "CentreTo", "RollTo", "SquareToSlope"]
 
@@ -189,11 +192,47 @@ class RollTo(_FollowKey, Roll):
     along the normal by ``ωx·y − ωy·x`` and press the pad in or lift it off, which the force
     hold then has to undo (on a stiff object it starts oscillating). The leaf adds the opposite
     normal speed (row vz); for a contact at the centre, the paper's case, that is zero.
+
+    With ``rocking_hold_s`` above 0 (0 by default), while the pad rocks between two contacts
+    (:class:`~tactile_bt.control.chatter.RockingDetector`: the largest region changing sides
+    twice within 0.5 s, each time by more than half the pad's width, another region under the
+    pad) and the supervisor has pulled it back within ``rocking_pulled_back_s``, the leaf holds
+    the pad's tilt: it adds nothing until ``rocking_hold_s`` after the rocking stops. A flat pad
+    bridging a hollow narrower than itself rests on its two rims; rolled towards the one that
+    bears more, it presses the other, which then bears more, and the pad rocks from rim to rim,
+    pressing each rim's narrow contact in turn (on a groove past twice the pressure target, until
+    the supervisor ended the scan). Rocking that presses nothing that hard is left alone: a pad
+    bridging a ring's hole rolls into its inner slope that way.
     """
 
     target_m = Roll.target_m.replace(doc="Target while the key is not set (m).")
+    rocking_hold_s = Parameter(0.0, bound=NON_NEGATIVE,
+                               doc="While the pad rocks between two contacts, the supervisor having pulled it back, "
+                                   "and this long after, the leaf holds the pad's tilt (adds nothing) (s; 0: never; "
+                                   "0.3 s holds a rocking pad on a groove's rims).")
+    rocking_pulled_back_s = Parameter(defaults.ROCKING_PULLED_BACK_S, bound=Bound(0.0, allow_inf=True),
+                                      doc="A rocking pad's tilt is held when the supervisor pulled it back within this "
+                                          "time (s; inf: whenever it rocks).")
+
+    def parameters_changed(self, changed: frozenset[str]) -> None:
+        super().parameters_changed(changed)
+        if "rocking_hold_s" in changed:
+            # kept when the leaf starts again: whether the pad rocks is the contact's state, and a
+            # scan's next attempt often begins where the last one ended
+            self.rocking = RockingDetector(defaults.ROCKING_JUMP_SHARE, defaults.ROCKING_CHANGES,
+                                           defaults.ROCKING_WINDOW_S, self.rocking_hold_s)
+            self._pulled_back_at = -math.inf  # when the supervisor last pulled the pad back (s)
 
     def update(self) -> Status:
+        f = self.features
+        now = self.now
+        if read_or(RETREATING, False):
+            self._pulled_back_at = now
+        rocking = self.rocking.update(now, f.in_contact, f.cop_xy, f.others_tactels > 0, min(f.pad.size_m))
+        if rocking and now - self._pulled_back_at <= self.rocking_pulled_back_s:
+            self._last_twist = (0.0,) * 6
+            self._feedback = "holding the tilt: the pad rocks between two contacts"
+            return Status.RUNNING
         status = super().update()
         wx, wy = self._last_twist[3], self._last_twist[4]
         if wx or wy:
