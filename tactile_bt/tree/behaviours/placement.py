@@ -223,13 +223,17 @@ class RollTo(_FollowKey, Roll):
                                            defaults.ROCKING_WINDOW_S, self.rocking_hold_s)
             self._pulled_back_at = -math.inf  # when the supervisor last pulled the pad back (s)
 
-    def update(self) -> Status:
+    def _holds_the_tilt(self) -> bool:
+        """Whether the pad rocks, the supervisor having pulled it back within ``rocking_pulled_back_s``."""
         f = self.features
         now = self.now
         if read_or(RETREATING, False):
             self._pulled_back_at = now
         rocking = self.rocking.update(now, f.in_contact, f.cop_xy, f.others_tactels > 0, min(f.pad.size_m))
-        if rocking and now - self._pulled_back_at <= self.rocking_pulled_back_s:
+        return rocking and now - self._pulled_back_at <= self.rocking_pulled_back_s
+
+    def update(self) -> Status:
+        if self.rocking_hold_s > 0 and self._holds_the_tilt():
             self._last_twist = (0.0,) * 6
             self._feedback = "holding the tilt: the pad rocks between two contacts"
             return Status.RUNNING
