@@ -4,8 +4,8 @@ PID's outputs (:class:`tactile_bt.tree.behaviours.base.ServoLeaf`).
 
 A pad rocking between two contacts (:class:`RockingDetector`): the largest contact region
 changing sides again and again, as a flat pad bridging a hollow does when it rolls towards
-whichever rim bears more. The rolling leaf holds the pad's tilt while it lasts
-(:class:`tactile_bt.tree.behaviours.placement.RollTo`).
+whichever rim bears more. The rolling leaf can hold the pad's tilt while it lasts
+(``rocking_hold_s`` of :class:`tactile_bt.tree.behaviours.placement.RollTo`).
 
 Layer: control.
 """
@@ -123,7 +123,7 @@ class RockingDetector:
         self.reset()
 
     def reset(self) -> None:
-        """No history (called when a leaf starts)."""
+        """No history."""
         self._last_xy: tuple[float, float] | None = None
         self._times: list[float] = []
         self._until = -math.inf

@@ -48,7 +48,7 @@ root:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """Roll rates (rad/s) and smoothed pressures (Pa) from 2 s on, with the tilt held while the
-    pad rocks (the default) and without (``rocking_hold_s: 0``)."""
+    pad rocks (``rocking_hold_s: 0.3``) and without (``0``, the default)."""
     folder = tmp_path_factory.mktemp("rocking")
     (folder / "scene.yaml").write_text(SCENE)
     (folder / "tree.yaml").write_text(TREE)
