@@ -64,12 +64,14 @@ def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float)
         ``kind`` ("foot"), ``out`` (unit world xy, away from the object), ``along`` (unit world
         xy along the foot), ``normal`` (the face's mean outward normal), ``start``
         (world xy, m, of the foot at ``foot_z`` at the run's first end), ``length_m``,
-        ``centre`` (world xy of its middle) and ``band_top_z`` (world height, m, of the band
-        left above the foot: the 90th percentile of the run's frontier cells' heights).
+        ``centre`` (world xy of its middle), ``band_top_z`` (world height, m, of the band
+        left above the foot: the 90th percentile of the run's frontier cells' heights) and
+        ``cells`` (the indices of its frontier cells in the arguments).
     """
     xy, z, normals = (np.asarray(a, dtype=float) for a in (xy, z, normals))
     horizontal = np.linalg.norm(normals[:, :2], axis=1) if len(normals) else np.zeros(0)
     usable = np.isfinite(horizontal) & (horizontal > math.sin(_LEAST_TILT_RAD)) & np.isfinite(z)
+    given = np.flatnonzero(usable)
     xy, z, normals, horizontal = xy[usable], z[usable], normals[usable], horizontal[usable]
     if not len(xy):
         return []
@@ -101,7 +103,7 @@ def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float)
             start = o * offset + along * s0
             runs.append({"kind": "foot", "out": o.copy(), "along": along.copy(), "normal": normal.copy(), "start": start,
                          "length_m": s1 - s0, "centre": start + along * (s1 - s0) / 2,
-                         "band_top_z": float(np.percentile(z[idx[part]], 90))})
+                         "band_top_z": float(np.percentile(z[idx[part]], 90)), "cells": given[idx[part]]})
     runs.sort(key=lambda r: -r["length_m"])
     return runs
 

@@ -54,6 +54,9 @@ def test_a_ridge_s_few_cells_make_no_run_and_two_faces_make_two():
     outs = sorted((r["out"] for r in runs), key=lambda o: math.atan2(o[1], o[0]))
     npt.assert_allclose(outs[0], a[3], atol=0.02)
     npt.assert_allclose(outs[1], b[3], atol=0.02)
+    # each run names its cells: the faces' 40 each, none of the ridge's 3 (indices 40-42)
+    cells = np.sort(np.concatenate([r["cells"] for r in runs]))
+    npt.assert_array_equal(cells, np.concatenate((np.arange(40), np.arange(43, 83))))
 
 
 def test_a_gap_splits_a_run_and_a_level_surface_has_no_foot():

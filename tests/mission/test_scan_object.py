@@ -987,6 +987,33 @@ def test_a_side_rounding_off_to_the_table_is_explained_by_it():
     assert leaf.frontier_left()["estimated_coverage"] == 1.0
 
 
+def test_an_edge_the_pad_rolled_over_at_a_few_places_leaves_no_band_to_the_table():
+    # a 60 mm level top 30 mm above the table; at three places on its edges the pad rolled over,
+    # tilted 29°, and recorded its imprint in its own plane: 4 mm wide strips from 12 mm inside
+    # to 6 mm beyond the edge, as if a 29° face went on down there. A face's frontier runs along
+    # it; a few cells apart are the edge's, and the table explains them
+    g = np.arange(-0.03, 0.03 + 1e-9, 0.001)
+    X, Y = np.meshgrid(g, g)
+    top = np.column_stack((X.ravel(), Y.ravel(), np.full(X.size, 0.03)))
+    tilt = math.radians(29)
+    strips = []
+    for out, along in (((1.0, 0.0), -0.01), ((0.0, 1.0), 0.015), ((-1.0, 0.0), 0.005)):
+        out = np.array(out)
+        side = np.array([-out[1], out[0]])
+        inside = np.abs(top[:, :2] @ side - along) <= 0.002
+        top = top[~(inside & (top[:, :2] @ out >= 0.018))]
+        s, a = np.meshgrid(np.arange(-0.012, 0.006 + 1e-9, 0.001), np.arange(-0.002, 0.002 + 1e-9, 0.001))
+        xy = out * (0.03 + s.ravel()[:, None]) + side * (along + a.ravel()[:, None])
+        z = 0.03 - np.maximum(s.ravel(), -0.012) * math.tan(tilt)
+        n = np.tile((out[0] * math.sin(tilt), out[1] * math.sin(tilt), math.cos(tilt)), (len(xy), 1))
+        strips.append((np.column_stack((xy, z)), n))
+    pts = np.vstack([top] + [p for p, _ in strips])
+    normals = np.vstack([np.tile((0.0, 0.0, 1.0), (len(top), 1))] + [n for _, n in strips])
+    leaf, status = _all_frontier_at_the_table((pts, normals), (0.0, 0.0, 0.03))
+    assert status == Status.SUCCESS, leaf.feedback_message
+    assert leaf.frontier_left()["untouched_near_table_m2"] == 0.0
+
+
 def test_a_verdict_of_an_earlier_scan_does_not_end_the_next_one():
     leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
     h.set("/scan/reapproach", {"verdict": "no reachable frontier left, but 32 mm unexplained"})

@@ -88,8 +88,9 @@ class FrontierLeft:
                              doc="The leaf succeeds only when the touched area is at least this fraction of the "
                                  "touched area and the estimated area left between the table and the frontier the "
                                  "table explains where that frontier lies on a plane face (its normal turns by less "
-                                 "than 5° over the 10 mm inwards): the face taken to go on down to the table at its "
-                                 "slope (0 = no such test). A rounded side steepening towards the table, or an edge "
+                                 "than 5° over the 10 mm inwards) and runs along it (a run of foot, as a border "
+                                 "sweep takes it: a few cells apart are a corner's): the face taken to go on down "
+                                 "to the table at its slope (0 = no such test). A rounded side steepening towards the table, or an edge "
                                  "the pad rolled over, adds nothing: what lies below is steeper than anything "
                                  "touched. The valleys that explain frontier (holes in the touched area narrower than "
                                  "the pad) add their area, and so does the surface taken to go on beyond the "
@@ -144,6 +145,7 @@ class FrontierLeft:
         reach = self.pad.half_diagonal_m + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         face = face_going_on(self.map, rows[band], cols[band], out[band], steep, self.table_z_m, reach)
+        face = self._in_foot_runs(rows[band], cols[band], face)
         below = untouched_below(self.map, rows[band], cols[band], out[band], self.table_z_m, steep,
                                 self._cloud.points, defaults.COVERAGE_RADIUS_M, reach, face)
         self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
@@ -171,6 +173,23 @@ class FrontierLeft:
         write(FRONTIER_LEFT_KEY, self.frontier_left())
         ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
+
+    def _in_foot_runs(self, rows: np.ndarray, cols: np.ndarray, face: np.ndarray) -> np.ndarray:
+        """``face`` (which of the frontier cells ``(rows, cols)`` lie on a plane face going on
+        down to the table) less the cells that belong to no run of foot (:func:`foot_runs`): a
+        face's frontier runs along it, and a few cells apart are a corner's or an edge's the pad
+        rolled over, whose samples lie in the tilted pad's plane (a box smaller than the pad).
+        The band the estimate counts is the band a border sweep can reach."""
+        idx = np.flatnonzero(face)
+        if not len(idx):
+            return face
+        foot_z = self.table_z_m + self.foot_height_m
+        runs = foot_runs(self.map.centre_of(rows[idx], cols[idx]), self.map.z_max[rows[idx], cols[idx]],
+                         self.map.mean_normal(rows[idx], cols[idx]), foot_z)
+        kept = np.zeros(len(face), dtype=bool)
+        for run in runs:
+            kept[idx[run["cells"]]] = True
+        return kept
 
     def frontier_left(self) -> dict:
         """The frontier left at the last choice, ``{"explained": {reason: m}, "unexplained":
