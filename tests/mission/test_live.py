@@ -183,11 +183,13 @@ def test_a_silent_sensor_ends_the_mission_within_five_periods(tmp_path, request)
     recorded = np.load(tmp_path / "twin" / "twin.npz")
     np.testing.assert_array_equal(recorded["command_twist"][-1], np.zeros(6))
     # from the last frame the loop had to the zero twist: within 5 periods of 4 ms, plus the
-    # longest the loop itself took from a frame to its twist in this run (a machine busy with
-    # other work delays both alike)
+    # longest the loop itself took from a frame to its twist and the longest the twin's own
+    # 4 ms pose stream was late in this run (a machine busy with other work delays all alike)
     stop = recorded["command_time_s"][-1] - recorded["command_time_s"][-2]
     late = report["realtime"]["latency_ms"]["max"] * 1e-3
-    assert stop <= 5 * 0.004 + 0.004 + late, (stop, late)
+    period = 1.0 / float(recorded["rate_hz"])
+    twin_late = max(float(np.diff(recorded["pose_time_s"]).max()) - period, 0.0)
+    assert stop <= 5 * 0.004 + 0.004 + late + twin_late, (stop, late, twin_late)
     assert len(log["t"]) > 20
 
 

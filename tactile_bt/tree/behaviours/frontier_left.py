@@ -11,7 +11,8 @@ contact, a target not reached in time or an untried frontier do not. It writes t
 ``/scan/frontier_left`` for ``coverage_stalled`` and the report, with an estimate of the area
 left between the table and the frontier the table explains, where that frontier lies on a
 plane face that goes on down to the table (the pad cannot lie on it lower without its border at
-the table): there the table explains why the pad stopped, but not the surface it left. When no
+the table) and runs along its foot, as a border sweep would take it: there the table explains
+why the pad stopped, but not the surface it left. When no
 reachable frontier is left but some is unexplained, it asks for a re-approach
 (:mod:`tactile_bt.tree.behaviours.reapproach`) on ``reapproach_key``, and applies the result
 when it goes on.
