@@ -1014,6 +1014,17 @@ def test_an_edge_the_pad_rolled_over_at_a_few_places_leaves_no_band_to_the_table
     assert leaf.frontier_left()["untouched_near_table_m2"] == 0.0
 
 
+def test_a_return_to_the_last_contact_is_no_end_of_the_surface_and_no_re_approach():
+    leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
+    h.tick(make_features())
+    job = {"probe": (np.array([0.01, 0.0, 0.05]), np.array([0.0, 0.0, 1.0])), "top_z": 0.05, "return": True,
+           "home": (np.array([0.01, 0.0, 0.05]), np.array([0.0, 0.0, 1.0])), "result": "surface"}
+    h.set("/scan/reapproach", job)
+    leaf.initialise()
+    h.tick(make_features())
+    assert job.get("applied") and not leaf.ends and not leaf.plan.tried
+
+
 def test_a_verdict_of_an_earlier_scan_does_not_end_the_next_one():
     leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach")
     h.set("/scan/reapproach", {"verdict": "no reachable frontier left, but 32 mm unexplained"})

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.control.spatial import make_pose
 from tactile_bt.testing import LeafHarness, make_features
-from tactile_bt.tree.behaviours import Reapproach
+from tactile_bt.tree.behaviours import Reapproach, ReturnToSurface
 
 DOWN = Rotation.from_euler("x", 180, degrees=True)
 DT = 1.0 / 250.0
@@ -82,3 +82,38 @@ def test_a_pad_whose_wrist_is_wound_near_its_limit_lands_turned_back_a_quarter_t
         turns[negative_room] = Rotation.from_matrix(start[:3, :3].T @ T[:3, :3]).as_rotvec()[2]
     assert turns[math.radians(10)] == pytest.approx(math.pi / 2, abs=math.radians(3))  # away from the limit
     assert turns[math.radians(170)] == pytest.approx(0.0, abs=math.radians(3))
+
+
+def test_a_touch_that_found_nothing_is_followed_by_a_return_to_the_last_contact():
+    # the pad lost its contact on a 40° face and drifted 90 mm sideways while it approached
+    # along its normal; return_to_surface names the last contact, reapproach takes the pad back
+    tilt = math.radians(40)
+    normal = np.array([-math.sin(tilt), 0.0, math.cos(tilt)])
+    last = np.array([-0.03, 0.01, 0.025])
+    drifted = make_pose(DOWN, np.array([0.06, 0.01, 0.03]))
+    leaf = ReturnToSurface()
+    h = LeafHarness(leaf, dt=DT, pose=drifted)
+    assert h.tick(make_features(in_contact=False)) == Status.FAILURE
+    assert "none recorded" in leaf.feedback_message
+    assert py_trees.blackboard.Blackboard.storage.get("/scan/reapproach") is None
+    h.contacts.extend(np.array([[-0.02, 0.0, 0.04], [-0.025, 0.005, 0.03], last]), normal, 2000.0, 0.0)
+    assert h.tick(make_features(in_contact=False)) == Status.FAILURE
+    assert "returning to the last contact at (-30, 10, 25) mm" in leaf.feedback_message
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    npt.assert_allclose(job["probe"][0], last)
+    npt.assert_allclose(job["probe"][1], normal)
+    assert job["top_z"] == pytest.approx(0.04) and job["return"]
+
+    back = Reapproach()
+    h = LeafHarness(back, dt=DT, pose=drifted)
+    h.set("/scan/reapproach", job)
+
+    def on_face(T):  # the face around the last contact
+        d = T[:3, 3] - last
+        height = float(d @ normal)
+        return np.linalg.norm(d - height * normal) < 0.03 and height <= 0.0
+
+    status, T = fly(h, on_face)
+    assert status == Status.SUCCESS and job["result"] == "surface"
+    npt.assert_allclose(T[:3, 2], -normal, atol=math.radians(3))  # facing the face again
+    assert np.linalg.norm(T[:3, 3] - last) < 0.005

@@ -24,7 +24,7 @@ from tactile_bt.tree.behaviours.table import TableClearance
 from tactile_bt.tree.behaviours.frontier import FrontierGuidance
 from tactile_bt.tree.behaviours.border_sweep import BorderSweep
 from tactile_bt.tree.behaviours.hole_probe import HoleProbe
-from tactile_bt.tree.behaviours.reapproach import Reapproach
+from tactile_bt.tree.behaviours.reapproach import Reapproach, ReturnToSurface
 from tactile_bt.tree.behaviours.placement import CentreTo, RollTo, SquareToSlope, TableOffset
 from tactile_bt.tree.behaviours.servo import AlignEdge, Centre, ForceHold, Roll, TactileServo
 from tactile_bt.tree.behaviours.supervision import SupervisorRetreat
@@ -54,6 +54,7 @@ LEAVES = {
     "backtrack": Backtrack,
     "frontier_guidance": FrontierGuidance,
     "reapproach": Reapproach,
+    "return_to_surface": ReturnToSurface,
     "border_sweep": BorderSweep,
     "hole_probe": HoleProbe,
     "table_clearance": TableClearance,
@@ -103,6 +104,7 @@ __all__ = [
     "Backtrack",
     "FrontierGuidance",
     "Reapproach",
+    "ReturnToSurface",
     "BorderSweep",
     "HoleProbe",
     "TableClearance",

@@ -390,6 +390,8 @@ class FrontierLeft:
         if self.map is None or not isinstance(job, dict) or "result" not in job or job.get("applied"):
             return
         job["applied"] = True
+        if job.get("return"):  # back to the last contact after a touch found nothing: no frontier news
+            return
         if "hole" in job:
             if job["result"] == "open":  # the table seen through it: no surface to scan there
                 self.map.mark_empty(job["hole"]["cells"], opened=True)

@@ -46,7 +46,7 @@ from tactile_bt.tree.blackboard import read_or, turn_room
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
 
-__all__ = ["Reapproach", "REAPPROACH_KEY", "HOLD_GAIN", "STUCK_S", "facing"]
+__all__ = ["Reapproach", "ReturnToSurface", "REAPPROACH_KEY", "HOLD_GAIN", "STUCK_S", "facing"]
 
 #: Blackboard key of the pending re-approach.
 REAPPROACH_KEY = "/scan/reapproach"
@@ -324,3 +324,39 @@ class Reapproach(TactileBehaviour):
         """The world angular velocity (rad/s) that holds the pad's orientation at ``R`` (world):
         ``_K_TURN`` times the rotation from the pad's to ``R``."""
         return _K_TURN * Rotation.from_matrix(R @ self.pose[:3, :3].T).as_rotvec()
+
+
+class ReturnToSurface(TactileBehaviour):
+    """Ask ``reapproach`` to take the pad back to the last contact recorded, and FAIL: for the
+    branch of a ``selector`` after a ``touch`` that found nothing.
+
+    A pad that lost its contact near the table, tilted, and then approached along its own normal
+    can miss the object altogether: the table guard's brake cancels the descent, and the pad
+    slides sideways away from everything for as long as the approach lasts, then again on every
+    retry. This leaf writes ``{"probe": (point, normal), "home": (point, normal), "top_z": z,
+    "return": True}`` (world, m; the last sample of the mission's contact cloud and its normal,
+    and the highest sample) to ``key`` and fails, so that a ``retry`` around the sequence runs
+    ``reapproach`` first: it lifts the pad off, moves it over the last contact and approaches it
+    along its normal. It fails without a job when nothing has been recorded yet.
+    """
+
+    key = Parameter(REAPPROACH_KEY, fixed=True, doc="Blackboard key of the pending re-approach (a dict).")
+
+    def __init__(self, name: str | None = None, *args, **parameters) -> None:
+        super().__init__(name, *args, **parameters)
+        self.key = normalise_key(self.key)
+        self._bb = self.attach_blackboard_client(name=f"{self.name}/return")
+        self._bb.register_key(key=self.key, access=Access.WRITE)
+
+    def update(self) -> Status:
+        cloud = self.bb.contacts
+        if cloud is None or not len(cloud):
+            self.feedback_message = "no contact, and none recorded to return to"
+            return Status.FAILURE
+        point, normal = cloud.points[-1].copy(), cloud.normals[-1].copy()
+        top_z = float(np.max(cloud.points[:, 2]))
+        self._bb.set(self.key, {"probe": (point, normal), "home": (point, normal), "top_z": top_z, "return": True},
+                     overwrite=True)
+        x, y, z = point * 1e3
+        self.feedback_message = f"no contact: returning to the last contact at ({x:.0f}, {y:.0f}, {z:.0f}) mm"
+        return Status.FAILURE
