@@ -91,8 +91,8 @@ class FrontierLeft:
                                  "table explains where that frontier lies on a plane face (its normal turns by less "
                                  "than 5° over the 10 mm inwards) and runs along it (a run of foot, as a border "
                                  "sweep takes it: a few cells apart are a corner's): the face taken to go on down "
-                                 "to the table at its slope (0 = no such test). A rounded side steepening towards the table, or an edge "
-                                 "the pad rolled over, adds nothing: what lies below is steeper than anything "
+                                 "to the table at its slope (0 = no such test). A rounded side steepening towards "
+                                 "the table, or an edge the pad rolled over, adds nothing: what lies below is steeper than anything "
                                  "touched. The valleys that explain frontier (holes in the touched area narrower than "
                                  "the pad) add their area, and so does the surface taken to go on beyond the "
                                  "frontier the arm's reach explains (10 mm of it, less where it steepens past the "
@@ -146,12 +146,13 @@ class FrontierLeft:
         reach = self.pad.half_diagonal_m + self.corner_margin_m  # contact to the farthest corner
         steep = self.max_tilt_rad - self.tilt_margin_rad
         face = face_going_on(self.map, rows[band], cols[band], out[band], steep, self.table_z_m, reach)
-        face = self._in_foot_runs(rows[band], cols[band], face)
+        r, c = rows[band][face], cols[band][face]
+        xy, z, normals = self.map.centre_of(r, c), self.map.z_max[r, c], self.map.mean_normal(r, c)
+        kept = self._in_foot_runs(xy, z, normals)
+        face[np.flatnonzero(face)[~kept]] = False
+        self.face_xy, self.face_z, self.face_normals = xy[kept], z[kept], normals[kept]
         below = untouched_below(self.map, rows[band], cols[band], out[band], self.table_z_m, steep,
                                 self._cloud.points, defaults.COVERAGE_RADIUS_M, reach, face)
-        self.face_xy = self.map.centre_of(rows[band][face], cols[band][face])
-        self.face_z = self.map.z_max[rows[band][face], cols[band][face]]
-        self.face_normals = self.map.mean_normal(rows[band][face], cols[band][face])
         # the valleys a flat pad bridges stay untouched: their area counts (the whole hole, which
         # may be partly the table seen through a ring: the estimate errs towards failing)
         valleys = self.map.valleys(min(self.pad.size_m)) if np.any(reason == VALLEY) else None
@@ -175,21 +176,17 @@ class FrontierLeft:
         ok = reason == OPEN
         return rows[ok], cols[ok], out[ok]
 
-    def _in_foot_runs(self, rows: np.ndarray, cols: np.ndarray, face: np.ndarray) -> np.ndarray:
-        """``face`` (which of the frontier cells ``(rows, cols)`` lie on a plane face going on
-        down to the table) less the cells that belong to no run of foot (:func:`foot_runs`): a
-        face's frontier runs along it, and a few cells apart are a corner's or an edge's the pad
-        rolled over, whose samples lie in the tilted pad's plane (a box smaller than the pad).
-        The band the estimate counts is the band a border sweep can reach."""
-        idx = np.flatnonzero(face)
-        if not len(idx):
-            return face
-        foot_z = self.table_z_m + self.foot_height_m
-        runs = foot_runs(self.map.centre_of(rows[idx], cols[idx]), self.map.z_max[rows[idx], cols[idx]],
-                         self.map.mean_normal(rows[idx], cols[idx]), foot_z)
-        kept = np.zeros(len(face), dtype=bool)
-        for run in runs:
-            kept[idx[run["cells"]]] = True
+    def _in_foot_runs(self, xy: np.ndarray, z: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """Which of the frontier cells on plane faces going on down to the table (their centres
+        ``xy``, heights ``z`` and mean normals, world, m) belong to a run of foot
+        (:func:`foot_runs`): a face's frontier runs along it, and a few cells apart are a
+        corner's or an edge's the pad rolled over, whose samples lie in the tilted pad's plane (a
+        box smaller than the pad). The band the estimate counts is the band a border sweep can
+        reach."""
+        kept = np.zeros(len(xy), dtype=bool)
+        if len(xy):
+            for run in foot_runs(xy, z, normals, self.table_z_m + self.foot_height_m):
+                kept[run["cells"]] = True
         return kept
 
     def frontier_left(self) -> dict:

@@ -42,7 +42,7 @@ from tactile_bt import defaults
 from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, lowest_corner, table_height
-from tactile_bt.tree.blackboard import read_or, turn_room
+from tactile_bt.tree.blackboard import read_or, turn_room, write
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, normalise_key
 
@@ -355,8 +355,7 @@ class ReturnToSurface(TactileBehaviour):
             return Status.FAILURE
         point, normal = cloud.points[-1].copy(), cloud.normals[-1].copy()
         top_z = float(np.max(cloud.points[:, 2]))
-        self._bb.set(self.key, {"probe": (point, normal), "home": (point, normal), "top_z": top_z, "return": True},
-                     overwrite=True)
+        write(self.key, {"probe": (point, normal), "home": (point, normal), "top_z": top_z, "return": True})
         x, y, z = point * 1e3
         self.feedback_message = f"no contact: returning to the last contact at ({x:.0f}, {y:.0f}, {z:.0f}) mm"
         return Status.FAILURE
