@@ -33,7 +33,12 @@ can make the twist only with large velocities (their Jacobian near singular), th
 the whole pad motion down on its commanded path, down to holding the pad, instead of letting
 damping turn the part they cannot make into a motion in another direction.  (That was a 35 to
 55 mm sideways jump of the pad when joint 7 saturated during a turn about the pad normal; see
-docs/scanning.md, "Limits".)  What they cannot do at all (the elbow's direction, with joint 4 on
+docs/scanning.md, "Limits".)  Where that would slow the pad to less than 1/50 of the twist, the
+remaining joints are near a singularity of their own, and it is damped after all, the translation
+first (:func:`translation_first`): with the arm stretched (the elbow straight) and joint 2 on its
+stop, joints 3 and 5 turning against each other are a self-motion of the six left, and the
+undamped re-solve made the pad's slide with them at thousands of rad/s, scaled to nothing; they
+swung back and forth every cycle while the pad stood still for 50 s.  What they cannot do at all (the elbow's direction, with joint 4 on
 its stop) is dropped in the least-squares sense.  With fewer joints left than parts of the twist
 (two joints on their stops while the pad turns), that least-squares fit would weigh metres per
 second against radians per second and trade a roll the wrist cannot make for a slide of the pad
@@ -68,6 +73,11 @@ import numpy as np
 from tactile_bt.control.spatial import skew
 
 __all__ = ["RateSolution", "ResolvedRateMixin"]
+
+#: The undamped re-solve after a saturation is kept while it needs at most this factor over the
+#: joints' speed limits (the pad slowed down to 1/50 of the twist on its path); beyond it the
+#: remaining joints are near a singularity of their own and it is damped, translation first.
+_CRAWL_PEAK = 50.0
 
 
 @dataclass
@@ -231,6 +241,9 @@ class ResolvedRateMixin:
                 qd[free] = damped_least_squares(rows, rest, lam, sigma_threshold, sub, null_speed_max)[0]
             if velocity_limits:
                 peak = self._speed_peak(qd)
+                if peak > _CRAWL_PEAK:  # the joints left make this twist only at a crawl: damped after all
+                    qd[free] = translation_first(rows, rest, damping, damping, sigma_threshold, sub, null_speed_max)
+                    peak = self._speed_peak(qd)
         scale = 1.0 / peak
         if scale < 1.0:
             qd = qd * scale

@@ -258,3 +258,34 @@ def test_near_a_singularity_a_roll_is_not_turned_into_a_slide(posture):
     assert 0.3 < sol.scale <= 1.0
     assert_allclose(made, sol.scale * asked, atol=1e-9)  # the slide asked, on its path (slowed by the speed limits)
     assert np.linalg.norm(sol.residual[3:]) < np.linalg.norm(V[3:])
+
+
+def test_with_the_arm_stretched_and_the_shoulder_on_its_stop_the_pad_keeps_moving():
+    """A posture of the wide ring's scan at the arm's reach: the elbow straight (2 deg), joint 2 on
+    its lower stop, the servo asking a slide and a roll. With joint 2 held, joints 3 and 5 turning
+    against each other is a self-motion of the six left, and the undamped re-solve made the slide
+    with them at thousands of rad/s: the speed scaling slowed the pad to nothing, and they
+    swung back and forth by half a degree every cycle while the pad stood still for 50 s. There
+    the re-solve is damped, the slide made first: the pad moves on its way, slowed at most by
+    the other stops it meets (joint 5's)."""
+    arm_kin = LWR4Kinematics(base=make_pose(None, np.array([-0.472, 0.0, 0.191])))
+    q = np.array([4.46, -120.0, 0.0, 2.02, 169.99, 119.25, -99.3]) * DEG
+    q[1] = Q_MIN[1]
+    servo_s = np.array([0.0126, -0.0169, 0.0463, 0.547, -0.0985, -0.0182])
+    avoid = LimitAvoidance()
+    dt, p0 = 0.004, arm_kin.fk(q)[:3, 3]
+    q3 = []
+    for k in range(25):  # 0.1 s
+        T = arm_kin.fk(q)
+        sol = arm_kin.resolved_rate(q, body_to_spatial(T, servo_s), dt=dt, q_dot_null=avoid.q_dot(q, Q_MIN, Q_MAX),
+                                    null_speed_max=avoid.speed_max, return_info=True)
+        asked = T[:3, :3] @ servo_s[:3]
+        made = asked - sol.residual[:3]
+        assert sol.saturated[1] or k > 0
+        assert sol.scale > 0.1  # (it was 6e-5)
+        assert made @ asked > 0.25 * (asked @ asked)  # the slide asked, slowed down at most
+        q = q + sol.q_dot * dt
+        q3.append(q[2])
+    moved = np.linalg.norm(arm_kin.fk(q)[:3, 3] - p0)
+    assert moved > 0.3 * np.linalg.norm(servo_s[:3]) * 0.1
+    assert np.count_nonzero(np.diff(np.sign(np.diff(q3)))) <= 2  # joint 3 does not swing (it turned back 24 times)
