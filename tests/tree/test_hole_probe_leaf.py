@@ -64,6 +64,31 @@ def test_a_floor_under_the_first_point_ends_the_probe_touched():
     assert np.linalg.norm(job["touched"][:2] - np.array([0.05, 0.0])) < 0.08  # where the pad touched: over the point
 
 
+def test_a_corner_that_touched_while_lowering_lifts_off_straight_up():
+    """The pad came down corner first, tilted 65°: it leaves the way it came, not along its
+    normal, which points across the valley at its other side."""
+    job = _job([0.005, 0.005])
+    h, leaf = _harness(job)
+    floor = 0.02
+    path, touched = [], []
+
+    def on_floor(T):
+        at_home = np.linalg.norm(T[:3, 3] - HOME) < 1e-4
+        contact = at_home or lowest_corner(T, leaf.pad)[2] <= floor
+        if contact and not at_home and not touched:
+            touched.append(T[:3, 3].copy())
+        if touched:
+            path.append(T[:3, 3].copy())
+        return contact
+
+    status, _ = fly(h, on_floor, max_ticks=20000)
+    assert status == Status.SUCCESS and job["result"] == "touched"
+    path = np.array(path)
+    risen = path[np.argmax(path[:, 2] >= touched[0][2] + leaf.lift_m - 0.002)]
+    assert risen[2] > touched[0][2]
+    assert np.linalg.norm(risen[:2] - touched[0][:2]) < 0.002   # along its normal: 7 mm aside
+
+
 def test_without_a_pending_probe_it_succeeds_at_once():
     h, _ = _harness(None)
     assert h.tick(make_features()) == Status.SUCCESS

@@ -23,7 +23,8 @@ or the arm stops it (on to the next point). It writes each point's outcome under
 ``"outcomes"`` and the corner's lowest heights under ``"reached"``, and ``"result": "open"``
 when the pad touched nowhere and the arm got it to every point but one at most, and to two at
 least (``reach`` otherwise). Then it goes back to the touched point it left, as
-``reapproach`` does; exploring goes on from there.
+``reapproach`` does, lifting off straight up where the corner touched while lowering (the way it
+came down: along its tilted normal it may press the valley's other side); exploring goes on from there.
 
 It belongs beside ``reapproach`` and ``border_sweep`` in the sequence before ``touch``: each
 leaf carries out its own kind of job and lets the other pass.
@@ -57,11 +58,13 @@ class HoleProbe(Reapproach):
     """Carry out the probe of a valley pending on ``key``, if any (see the module docstring);
     SUCCESS at once without one."""
 
+    _rising = False  # lift straight up off the next contact (the corner touched while lowering)
+
     def initialise(self) -> None:
         super().initialise()  # a re-approach job is reapproach's; this leaf passes it by
         job = read_or(self.key)
         self._job = job if isinstance(job, dict) and "hole" in job and "result" not in job else None
-        self._lowering = False
+        self._lowering = self._rising = False
         if self._job is not None:
             self._job["reached"], self._job["outcomes"] = [], []
             self._probe = 0
@@ -71,6 +74,13 @@ class HoleProbe(Reapproach):
         if self._job is not None and self._lowering and not self._going_home:
             return f"lowering the corner into the valley, point {self._probe + 1} of {len(self._probes())}"
         return super().describe()
+
+    def _lift_direction(self) -> np.ndarray:
+        """Straight up after the corner touched while lowering: the pad came down that way, and
+        its normal, tilted corner first, may point at the valley's other side."""
+        if self._rising:
+            return np.array([0.0, 0.0, 1.0])
+        return super()._lift_direction()
 
     def _probes(self) -> list:
         return self._job["hole"]["probes"]
@@ -123,6 +133,7 @@ class HoleProbe(Reapproach):
         corner = lowest_corner(self.pose, self.pad)
         if f.in_contact:  # lowering, any contact is surface: the valley is not open there
             self._note_touch()
+            self._rising = True  # back up the way it came down
             self._finish("touched")
         elif corner[2] <= self._corner[2] + _DEPTH_M or self._corner_at_table():
             self._finish("open")

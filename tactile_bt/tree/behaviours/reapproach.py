@@ -168,7 +168,7 @@ class Reapproach(TactileBehaviour):
         T = self.pose
         half_diagonal = self.pad.half_diagonal_m + self.corner_margin_m
         # lift off a contact; a pad in the air (a move cut short at the arm's reach) rises at once
-        lifted = T[:3, 3] - T[:3, 2] * self.lift_m if self.features.in_contact else T[:3, 3].copy()
+        lifted = T[:3, 3] + self._lift_direction() * self.lift_m if self.features.in_contact else T[:3, 3].copy()
         tilt_now = math.sqrt(max(0.0, 1.0 - T[2, 2] ** 2))
         tilt_new = math.sqrt(max(0.0, 1.0 - R[2, 2] ** 2))
         safe = top_z + self.clearance_m + half_diagonal * max(tilt_now, tilt_new)
@@ -183,6 +183,10 @@ class Reapproach(TactileBehaviour):
         self._deadline = self.now + self.move_s
         self._progress = (math.inf, self.now)
         self._approached = 0.0
+
+    def _lift_direction(self) -> np.ndarray:
+        """World direction (unit) the pad lifts off a contact in: back along its normal."""
+        return -self.pose[:3, 2]
 
     def _clear_of_the_table(self, point: np.ndarray, normal: np.ndarray, R: np.ndarray) -> np.ndarray | None:
         """Where to centre the pad (world) to touch ``point``: the point itself, or, where the
