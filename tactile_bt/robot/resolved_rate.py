@@ -33,12 +33,14 @@ can make the twist only with large velocities (their Jacobian near singular), th
 the whole pad motion down on its commanded path, down to holding the pad, instead of letting
 damping turn the part they cannot make into a motion in another direction.  (That was a 35 to
 55 mm sideways jump of the pad when joint 7 saturated during a turn about the pad normal; see
-docs/scanning.md, "Limits".)  Where that would slow the pad to less than 1/50 of the twist, the
-remaining joints are near a singularity of their own, and it is damped after all, the translation
-first (:func:`translation_first`): with the arm stretched (the elbow straight) and joint 2 on its
-stop, joints 3 and 5 turning against each other are a self-motion of the six left, and the
-undamped re-solve made the pad's slide with them at thousands of rad/s, scaled to nothing; they
-swung back and forth every cycle while the pad stood still for 50 s.  What they cannot do at all (the elbow's direction, with joint 4 on
+docs/scanning.md, "Limits".)  Where that would slow the pad to less than 1/50, the re-solve is
+damped after all, the translation first (:func:`translation_first`), if it then turns the pad
+more about the axis asked than across it: with the arm stretched (the elbow straight) and joint 2
+or 6 on its stop, the undamped re-solve made the twist with joints 3 and 5 turning against each
+other at thousands of rad/s, scaled to nothing; they swung back and forth every cycle while the
+pad stood still for 20 to 50 s (damped, it slides as asked and makes half the turn).  A turn
+about the pad normal with joint 7 on its stop is still held: damped, 2 % of it was made, and a
+tilt across it seven times as fast pressed the pad's edge in.  What they cannot do at all (the elbow's direction, with joint 4 on
 its stop) is dropped in the least-squares sense.  With fewer joints left than parts of the twist
 (two joints on their stops while the pad turns), that least-squares fit would weigh metres per
 second against radians per second and trade a roll the wrist cannot make for a slide of the pad
@@ -75,8 +77,8 @@ from tactile_bt.control.spatial import skew
 __all__ = ["RateSolution", "ResolvedRateMixin"]
 
 #: The undamped re-solve after a saturation is kept while it needs at most this factor over the
-#: joints' speed limits (the pad slowed down to 1/50 of the twist on its path); beyond it the
-#: remaining joints are near a singularity of their own and it is damped, translation first.
+#: joints' speed limits (the pad slowed down to 1/50 of the twist on its path); beyond it, it is
+#: damped, translation first, where that turns the pad on its way.
 _CRAWL_PEAK = 50.0
 
 
@@ -241,9 +243,12 @@ class ResolvedRateMixin:
                 qd[free] = damped_least_squares(rows, rest, lam, sigma_threshold, sub, null_speed_max)[0]
             if velocity_limits:
                 peak = self._speed_peak(qd)
-                if peak > _CRAWL_PEAK:  # the joints left make this twist only at a crawl: damped after all
-                    qd[free] = translation_first(rows, rest, damping, damping, sigma_threshold, sub, null_speed_max)
-                    peak = self._speed_peak(qd)
+                if peak > _CRAWL_PEAK:  # the joints left make this twist only at a crawl: damped after all,
+                    # where that turns the pad more the way asked than another way
+                    x = translation_first(rows, rest, damping, damping, sigma_threshold, sub, null_speed_max)
+                    if _turns_on_its_way(rows @ x, rest):
+                        qd[free] = x
+                        peak = self._speed_peak(qd)
         scale = 1.0 / peak
         if scale < 1.0:
             qd = qd * scale
@@ -258,6 +263,19 @@ class ResolvedRateMixin:
     def _speed_peak(self, qd: np.ndarray) -> float:
         """``max(1, max_i |qd_i| / qd_max_i)``: the factor that brings ``qd`` within the velocity limits."""
         return max(1.0, float(np.max(np.abs(qd) / self.qd_max)))
+
+
+def _turns_on_its_way(made: np.ndarray, asked: np.ndarray) -> bool:
+    """Whether the twist rows ``made`` turn the pad more about the axis ``asked`` turns it about
+    than about any axis across it (True when no turn is asked, or the rows hold no turn)."""
+    if made.shape[0] < 6:
+        return True
+    w = asked[3:]
+    size = float(np.linalg.norm(w))
+    if size < 1e-9:
+        return True
+    along = float(made[3:] @ w) / size
+    return along > float(np.linalg.norm(made[3:] - along * w / size))
 
 
 def _without_axis(axis: np.ndarray) -> np.ndarray:
