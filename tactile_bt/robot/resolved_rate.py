@@ -40,8 +40,8 @@ or 6 on its stop, the undamped re-solve made the twist with joints 3 and 5 turni
 other at thousands of rad/s, scaled to nothing; they swung back and forth every cycle while the
 pad stood still for 20 to 50 s (damped, it slides as asked and makes half the turn).  A turn
 about the pad normal with joint 7 on its stop is still held: damped, 2 % of it was made, and a
-tilt across it seven times as fast pressed the pad's edge in.  What they cannot do at all (the elbow's direction, with joint 4 on
-its stop) is dropped in the least-squares sense.  With fewer joints left than parts of the twist
+tilt across it seven times as fast pressed the pad's edge in.  What they cannot do at all (the
+elbow's direction, with joint 4 on its stop) is dropped in the least-squares sense.  With fewer joints left than parts of the twist
 (two joints on their stops while the pad turns), that least-squares fit would weigh metres per
 second against radians per second and trade a roll the wrist cannot make for a slide of the pad
 (0.3 m/s into a ring's side, with joints 5 and 7 wound onto their stops): there the translation
