@@ -16,11 +16,7 @@ longer axis, its body over the touched rim and its border row in the hollow, the
 the side with its border alone. :func:`valley_sides` gives these sweeps, one per side of each
 hollow.
 
-:class:`SweepPlan` remembers the sweeps done, so that each is made once, and the hollows whose
-sweeps have stopped finding anything: a side swept to the end that added less than
-``least_new_cells`` touched cells to the map is the sign of a hole (a ring's, its sides already
-touched from the rim, the table seen through it) rather than of a valley the pad bridged, and the
-hollow's other sides are not swept (on the wide rings each such sweep took 25-30 s).
+:class:`SweepPlan` remembers the sweeps done, so that each is made once.
 
 Layer: contacts.
 """
@@ -127,7 +123,7 @@ def valley_sides(m, mask: np.ndarray, step_m: float = 0.005) -> list[dict]:
         ``length_m``, ``width_m`` (how far inwards the passes go), ``step_m``, ``rim_z`` (the
         rim's height there, m), ``rim_rise`` (the rim's slope rising away from the hole, from its
         mean normal: where the sweeping pad starts to tilt from), ``normal`` (the rim's mean
-        outward normal), ``centre`` (world xy), ``hole`` (the hole's middle, world xy).
+        outward normal), ``centre`` (world xy).
     """
     from scipy import ndimage
 
@@ -175,7 +171,7 @@ def _sides_along(m, touched: np.ndarray, xy: np.ndarray, mid: np.ndarray, along:
         sides.append({"kind": "valley", "out": out.copy(), "along": along.copy(), "start": start,
                       "length_m": length, "width_m": width / 2 + step_m, "step_m": step_m,
                       "rim_z": rim_z, "rim_rise": rise, "normal": normal,
-                      "centre": start + along * length / 2, "hole": mid.copy()})
+                      "centre": start + along * length / 2})
     return sides
 
 
@@ -184,40 +180,19 @@ class SweepPlan:
     whose middle lies within ``radius_m`` of a swept one's and faces the same way is not swept
     again)."""
 
-    def __init__(self, radius_m: float = 0.03, most: int = 12, least_new_cells: int = 25) -> None:
+    def __init__(self, radius_m: float = 0.03, most: int = 12) -> None:
         self.radius_m = float(radius_m)
         self.most = int(most)
-        self.least_new_cells = int(least_new_cells)
         self.swept: list[dict] = []
-        self.spent_holes: list[np.ndarray] = []  # middles (world xy, m) of hollows not swept any more
-        self._last: tuple[dict, int] | None = None  # the last job and the touched cells when it began
-
-    def began(self, job: dict, touched_cells: int) -> None:
-        """Note that the sweep ``job`` (with ``"sweep"``: the chosen run) begins with the map
-        holding ``touched_cells`` touched cells."""
-        self._last = (job, int(touched_cells))
-
-    def ended(self, touched_cells: int) -> None:
-        """Judge the last sweep by the map's touched cells now: a hollow's side swept to the end
-        (``"result": "swept"``) that added fewer than ``least_new_cells`` spends its hollow."""
-        if self._last is None:
-            return
-        job, before = self._last
-        run = job["sweep"]
-        if run["kind"] == "valley" and job.get("result") == "swept" and touched_cells - before < self.least_new_cells:
-            self.spent_holes.append(np.asarray(run["hole"], dtype=float))
-        self._last = None
 
     def choose(self, candidates: list[dict], from_xy: np.ndarray) -> dict | None:
         """The candidate (:func:`foot_runs`, :func:`valley_sides`) nearest to ``from_xy``
-        (world, m) not swept before, nor a side of a spent hollow; None when none is left or
-        ``most`` have been swept."""
+        (world, m) not swept before; None when none is left or ``most`` have been swept."""
         if len(self.swept) >= self.most:
             return None
         fresh = [r for r in candidates if not any(
             np.linalg.norm(r["centre"] - d["centre"]) <= self.radius_m and r["out"] @ d["out"] >= math.cos(_SAME_FACE_RAD)
-            for d in self.swept) and not ("hole" in r and any(
-                np.linalg.norm(r["hole"] - h) <= self.radius_m for h in self.spent_holes))]
+            for d in self.swept)]
         if not fresh:
             return None
         run = min(fresh, key=lambda r: float(np.linalg.norm(r["centre"] - np.asarray(from_xy)[:2])))

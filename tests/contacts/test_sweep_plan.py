@@ -4,9 +4,8 @@ import math
 
 import numpy as np
 import numpy.testing as npt
-import pytest
 
-from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
+from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs
 
 SLOPE = math.radians(40)
 
@@ -81,36 +80,3 @@ def test_the_plan_sweeps_the_nearest_run_once_and_at_most_its_count():
     npt.assert_allclose(second["out"], [1.0, 0.0], atol=0.02)
     assert plan.choose(runs, from_xy=np.zeros(2)) is None
     assert SweepPlan(most=0).choose(runs, from_xy=np.zeros(2)) is None
-
-
-def _ring_sides():
-    """The sides of the hole of a touched ring (a hole 100 mm across, the ring 220 mm)."""
-    from tactile_bt.contacts.frontier_map import FrontierMap
-
-    g = np.arange(-0.11, 0.11 + 1e-9, 0.001)
-    X, Y = np.meshgrid(g, g)
-    r = np.hypot(X, Y)
-    keep = (r >= 0.05) & (r <= 0.11)
-    points = np.column_stack((X[keep], Y[keep], np.full(keep.sum(), 0.06)))
-    m = FrontierMap(np.zeros(2), 0.002, 0.3)
-    m.add(points, np.tile([0.0, 0.0, 1.0], (len(points), 1)))
-    return valley_sides(m, m.valleys(0.16))
-
-
-@pytest.mark.parametrize("added, result, more", [(3, "swept", False), (200, "swept", True), (0, "reach", True)])
-def test_a_hollow_whose_side_swept_to_the_end_added_nothing_is_not_swept_again(added, result, more):
-    """The sides of a ring's hole, already touched from the rim, with the table under the hole:
-    a sweep touches nothing new there, and the hollow's other sides would not either. A sweep
-    that touched new surface, or did not get through, leaves them to be swept."""
-    sides = _ring_sides()
-    assert len(sides) == 4  # a round hole: both sides along both axes
-    plan = SweepPlan(most=12)
-    first = plan.choose(sides, from_xy=np.array([-0.08, 0.0]))
-    job = {"sweep": first}
-    plan.began(job, touched_cells=5000)
-    job["result"] = result
-    plan.ended(touched_cells=5000 + added)
-    again = plan.choose(sides, from_xy=np.array([-0.08, 0.0]))
-    assert (again is not None) == more
-    if more:
-        assert np.linalg.norm(again["centre"] - first["centre"]) > 0.03

@@ -270,8 +270,6 @@ class FrontierLeft:
             return None
         if self.sweeps is None:
             self.sweeps = SweepPlan(most=self.max_sweeps)
-        touched = int(np.count_nonzero(np.isfinite(self.map.z_max)))
-        self.sweeps.ended(touched)  # what the last sweep added, if it was one
         foot_z = self.table_z_m + self.foot_height_m
         run = None
         if self.below_m2 > 0 and math.isfinite(foot_z):
@@ -286,7 +284,6 @@ class FrontierLeft:
         job = {"sweep": run, "foot_z": foot_z, "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
         write(self.reapproach_key, job)
-        self.sweeps.began(job, touched)
         return job
 
     def _probe_hole(self, point: np.ndarray, wide: bool = False) -> dict | None:
