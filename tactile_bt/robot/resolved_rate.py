@@ -41,13 +41,13 @@ other at thousands of rad/s, scaled to nothing; they swung back and forth every 
 pad stood still for 20 to 50 s (damped, it slides as asked and makes half the turn).  A turn
 about the pad normal with joint 7 on its stop is still held: damped, 2 % of it was made, and a
 tilt across it seven times as fast pressed the pad's edge in.  What they cannot do at all (the
-elbow's direction, with joint 4 on its stop) is dropped in the least-squares sense.  With fewer joints left than parts of the twist
-(two joints on their stops while the pad turns), that least-squares fit would weigh metres per
-second against radians per second and trade a roll the wrist cannot make for a slide of the pad
-(0.3 m/s into a ring's side, with joints 5 and 7 wound onto their stops): there the translation
-is made first and the turn only as far as the joints left over can make it
-(:func:`translation_first`).  The least-squares problem is posed on the *hybrid* twist ``[p_dot; w]`` of the pad
-centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
+elbow's direction, with joint 4 on its stop) is dropped in the least-squares sense.  With fewer
+joints left than parts of the twist (two joints on their stops while the pad turns), that
+least-squares fit would weigh metres per second against radians per second and trade a roll the
+wrist cannot make for a slide of the pad (0.3 m/s into a ring's side, with joints 5 and 7 wound
+onto their stops): there the translation is made first and the turn only as far as the joints
+left over can make it (:func:`translation_first`).  The least-squares problem is posed on the
+*hybrid* twist ``[p_dot; w]`` of the pad centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
 damped (approximate) solution independent of where the base origin lies.
 
 Null space
