@@ -117,3 +117,43 @@ def test_a_touch_that_found_nothing_is_followed_by_a_return_to_the_last_contact(
     assert status == Status.SUCCESS and job["result"] == "surface"
     npt.assert_allclose(T[:3, 2], -normal, atol=math.radians(3))  # facing the face again
     assert np.linalg.norm(T[:3, 3] - last) < 0.005
+
+
+def test_where_the_arm_cannot_reach_the_way_over_a_turned_pad_moves_over_lower():
+    """Near the arm's base the elbow cannot fold far enough to hold the pad high up. A pad
+    tilted 35° on a slope moves over as high as the tilt needs; once it has turned level and the
+    arm stops it short of that height, it goes on as low as a level pad clears everything
+    touched, and lands, instead of giving up with ``reach``."""
+    tilt = math.radians(35)
+    start = make_pose(Rotation.from_euler("y", -35, degrees=True) * DOWN, np.array([0.0, 0.0, 0.03]))
+    probe, normal = np.array([-0.12, 0.0, 0.002]), np.array([0.0, 0.0, 1.0])
+    top_z = 0.03
+    leaf = Reapproach()
+    h = LeafHarness(leaf, dt=DT, pose=start)
+    job = {"probe": (probe, normal), "top_z": top_z, "home": (start[:3, 3], -start[:3, 2])}
+    h.set("/scan/reapproach", job)
+    half_diagonal = leaf.pad.half_diagonal_m
+    tilted_way = top_z + leaf.clearance_m + half_diagonal * math.sin(tilt)  # the way over as planned
+    level_way = top_z + leaf.clearance_m                                       # enough for a level pad
+    ceiling = 0.5 * (tilted_way + level_way)
+
+    T = start.copy()
+    status, lowest_over_object = Status.RUNNING, math.inf
+    for _ in range(8000):
+        contact = (np.linalg.norm(T[:3, 3] - start[:3, 3]) < 1e-4) or T[2, 3] <= probe[2] + 1e-4
+        status = h.tick(make_features(pressure=2000.0) if contact else make_features(in_contact=False))
+        if status != Status.RUNNING:
+            break
+        twist = np.asarray(h.command.twist(), dtype=float)
+        R = T[:3, :3]
+        T = T.copy()
+        T[:3, 3] += R @ twist[:3] * DT
+        T[:3, :3] = Rotation.from_rotvec(R @ twist[3:] * DT).as_matrix() @ R
+        if T[0, 3] < -0.06:  # near the base: the elbow is on its stop this high
+            T[2, 3] = min(T[2, 3], ceiling)
+        if -0.04 < T[0, 3] < 0.04 and leaf.describe().startswith("moving over"):  # over the touched surface
+            lowest_over_object = min(lowest_over_object, T[2, 3] - half_diagonal * math.sqrt(1 - T[2, 2] ** 2))
+        h.set_pose(T)
+    assert status == Status.SUCCESS and job["result"] == "surface"
+    assert np.linalg.norm(T[:3, 3] - probe) < 0.005
+    assert lowest_over_object > top_z  # the way over still cleared everything touched
