@@ -117,7 +117,6 @@ class Reapproach(TactileBehaviour):
         self._bb.register_key(key=self.table_key, access=Access.READ)
         self._job: dict | None = None
         self._waypoints: list = []
-        self._over_z: float | None = None  # the lowest way over once turned (see _lower_way_over)
         self._phase = ""
         self._going_home = False
         self._progress = (math.inf, 0.0)  # the least error of the current move, and when
@@ -177,8 +176,6 @@ class Reapproach(TactileBehaviour):
         # a move the arm could not finish may be out of its reach too
         above = lowest_corner(T, self.pad, self.corner_margin_m)[2] >= top_z + self.clearance_m
         risen = lifted if above else np.array([lifted[0], lifted[1], max(safe, lifted[2])])
-        # turned already, the pad clears everything touched this low (see _lower_way_over)
-        self._over_z = max(top_z + self.clearance_m + half_diagonal * tilt_new, float(standoff[2]))
         self._waypoints = [(lifted, T[:3, :3].copy(), "lifting off"),
                            (risen, T[:3, :3].copy(), "rising"),
                            (np.array([standoff[0], standoff[1], max(safe, standoff[2])]), R, "moving over"),
@@ -298,25 +295,8 @@ class Reapproach(TactileBehaviour):
             self._waypoints.pop(0)
             self._deadline = self.now + self.move_s
             self._progress = (math.inf, self.now)
-        elif self._out_of_reach() and not self._lower_way_over():
+        elif self._out_of_reach():
             self._finish("reach")
-
-    def _lower_way_over(self) -> bool:
-        """Where the arm cannot get the pad to the way over everything touched (the elbow folded
-        up, near the arm's base), but the pad has made its turn already: move over as low as its
-        new orientation clears everything touched, once. The way over is as high as the more
-        tilted of the two orientations needs, since the pad turns on the way; True when the
-        waypoint was lowered."""
-        position, R, phase = self._waypoints[0]
-        if phase != "moving over" or self._over_z is None or position[2] <= self._over_z + _AT_M:
-            return False
-        if np.linalg.norm(Rotation.from_matrix(R @ self.pose[:3, :3].T).as_rotvec()) >= _AT_RAD:
-            return False
-        self._waypoints[0] = (np.array([position[0], position[1], self._over_z]), R, phase)
-        self._over_z = None
-        self._deadline = self.now + self.move_s
-        self._progress = (math.inf, self.now)
-        return True
 
     def _out_of_reach(self) -> bool:
         """Whether the current move has run out of time or come no nearer for ``STUCK_S``."""
