@@ -47,8 +47,9 @@ least-squares fit would weigh metres per second against radians per second and t
 wrist cannot make for a slide of the pad (0.3 m/s into a ring's side, with joints 5 and 7 wound
 onto their stops): there the translation is made first and the turn only as far as the joints
 left over can make it (:func:`translation_first`).  The least-squares problem is posed on the
-*hybrid* twist ``[p_dot; w]`` of the pad centre, not on ``V_g``: the two give the same exact solution, but only the former makes the
-damped (approximate) solution independent of where the base origin lies.
+*hybrid* twist ``[p_dot; w]`` of the pad centre, not on ``V_g``: the two give the same exact
+solution, but only the former makes the damped (approximate) solution independent of where the
+base origin lies.
 
 Null space
 ----------
