@@ -250,7 +250,7 @@ class FrontierMap:
         closed = self.closed[rows, cols]
         return np.where(closed >= 0, closed, cause).astype(np.int16)
 
-    def valleys(self, max_width_m: float, channels: bool = True) -> np.ndarray:
+    def valleys(self, max_width_m: float, channels: bool = True, open_rims: bool = True) -> np.ndarray:
         """``(n, n)`` bool: the untouched cells of hollows a flat pad ``max_width_m`` wide bridges.
 
         - Holes in the touched area, enclosed by it (not connected to the untouched surroundings)
@@ -262,7 +262,9 @@ class FrontierMap:
           the pad rested across. A bridge seen beyond the touched area explains nothing there.
 
         Cells seen :attr:`empty` belong to no hollow (the table seen through a ring). With
-        ``channels`` False, the enclosed holes only."""
+        ``channels`` False, the enclosed holes only; with ``open_rims`` False, not the band a
+        probe leaves along the rim of a hole it found open either (:meth:`hole_rims`: the
+        frontier facing it is that hole's, explained already)."""
         out = np.zeros((self.n, self.n), dtype=bool)
         w = self._window()
         t = self._touched(self.count[w])
@@ -281,6 +283,10 @@ class FrontierMap:
         found = keep[holes]
         if channels:
             found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
+        if not open_rims and self.opened[w].any():  # what lies along a hole found open
+            near = ndimage.binary_dilation(self.opened[w], structure=np.ones((3, 3), dtype=bool))
+            rims = np.unique(holes[near & (holes > 0)])
+            found &= ~np.isin(holes, rims)
         out[w] = found
         return out
 

@@ -320,6 +320,9 @@ def test_across_the_band_a_probe_leaves_at_a_wide_hole_s_rim_the_stalls_face_the
     rim_r = np.linalg.norm(m.centre_of(*np.nonzero(rims)), axis=1)
     assert np.all((rim_r > 0.045 - HOLE_RIM_M - 0.004) & (rim_r < 0.0455))  # the band, and only it
     npt.assert_allclose(np.count_nonzero(rims) * m.cell_m**2, 2 * math.pi * 0.043 * HOLE_RIM_M, rtol=0.35)
+    # the band is the open hole's rim: a hollow to sweep where the estimate falls short, none
+    # where unexplained frontier is left (what faces it is explained)
+    assert m.valleys(0.16).any() and not m.valleys(0.16, open_rims=False).any()
     rows, cols, out, reason = m.classify(math.radians(60), valley_m=0.08)
     r = np.linalg.norm(m.centre_of(rows, cols), axis=1)
     inner = r < 0.05

@@ -776,27 +776,31 @@ def test_more_unexplained_frontier_than_a_far_probe_closes_is_not_far_probed():
     assert sum(leaf.frontier_left()["unexplained"].values()) > 0.08
     assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"] == {"verdict": leaf.feedback_message}
 
-def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_open_explains_it():
-    # a level ring 30 mm above the table, its hole 90 mm across (wider than the pad, which
-    # slides over no rim into it); the outer rim too steep to go on, every attempt at the inner
-    # rim stalled: the planner first asks to sweep the hole's side (the one sweep it may make),
-    # which may narrow the hole; when that touched nothing, it asks to lower the pad's corner into
-    # the hole before it re-approaches
-    pts, normals = disc(0.1, z=0.03, step=0.0015)
-    ring = np.linalg.norm(pts[:, :2], axis=1) >= 0.045
-    leaf, h = planner_harness((pts[ring], normals[ring]), (0.06, 0.0), height=0.03, table=0.0,
-                              reapproach_key="/scan/reapproach", min_coverage=0.95, max_hole_probes=2,
-                              max_sweeps=1)
+def _stalled_ring(inner_m, outer_m=0.1, **kw):
+    """A planner on a level ring 30 mm above the table, from ``inner_m`` to ``outer_m`` out,
+    its outer rim too steep to go on and every attempt at its inner rim stalled."""
+    pts, normals = disc(outer_m, z=0.03, step=0.0015)
+    ring = np.linalg.norm(pts[:, :2], axis=1) >= inner_m
+    leaf, h = planner_harness((pts[ring], normals[ring]), (0.08, 0.0), height=0.03, table=0.0,
+                              reapproach_key="/scan/reapproach", min_coverage=0.95, **kw)
     assert h.tick(make_features()) == Status.RUNNING
-    for angle in np.linspace(0.0, 2 * math.pi, 72, endpoint=False):
+    _close_ring(leaf, inner_m, outer_m)
+    return leaf, h, pts, normals
+
+
+def _close_ring(leaf, inner_m, outer_m):
+    for angle in np.linspace(0.0, 2 * math.pi, 96, endpoint=False):
         d = np.array([math.cos(angle), math.sin(angle)])
-        leaf.map.close(0.045 * d, 0.005, cause="stall")
-        leaf.map.close(0.1 * d, 0.005, cause="tilt")
+        leaf.map.close(inner_m * d, 0.005, cause="stall")
+        leaf.map.close(outer_m * d, 0.005, cause="tilt")
     leaf.target = None
-    _, status = ticks_until_done(h, 10)
-    assert status == Status.FAILURE and leaf.feedback_message.startswith("sweeping the side"), leaf.feedback_message
-    py_trees.blackboard.Blackboard.storage["/scan/reapproach"]["result"] = "swept"
-    leaf.initialise()
+
+
+def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_open_explains_it():
+    # the ring's hole 90 mm across (wider than the pad, which slides over no rim into it): the
+    # planner asks to lower the pad's corner into the hole before it sweeps the hole's sides
+    # (which a flat pad's border cannot reach under a ring's rim) or re-approaches
+    leaf, h, _, _ = _stalled_ring(0.045, max_hole_probes=2, max_sweeps=1)
     _, status = ticks_until_done(h, 10)
     assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
     job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
@@ -804,7 +808,7 @@ def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_ope
     probes = job["hole"]["probes"]
     assert len(probes) == 5 and all(corner_z <= 0.02 for _, _, corner_z in probes)
     # the corner went down touching nothing: the rim faces a hole, and the scan is done, the band
-    # the probe left along the rim counted as untouched
+    # the probe left along the rim counted as untouched, no sweep made
     job["result"] = "open"
     leaf.initialise()
     _, status = ticks_until_done(h, 10)
@@ -815,6 +819,33 @@ def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_ope
     assert 0.5 * 2 * math.pi * 0.043 * 0.004 < band < 2 * 2 * math.pi * 0.043 * 0.004
     assert left["estimated_coverage"] < 1.0
     assert leaf.ends["hole probe: open"] == 1
+    assert leaf.sweeps is None or not leaf.sweeps.swept
+
+
+def test_a_hole_whose_probe_touched_is_probed_again_once_sliding_has_shrunk_it():
+    # the hole 140 mm across in the map: the corner, lowered near its edge, touched a wall under
+    # the rim the pad had not reached yet; once the pad has touched that wall (the hole in the
+    # map now 120 mm across), the hole is probed again, and found open
+    leaf, h, pts, normals = _stalled_ring(0.07, 0.16, max_hole_probes=2)
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    job["result"] = "touched"
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert not leaf.feedback_message.startswith("probing the hole"), leaf.feedback_message  # not as it was
+    wall = (np.linalg.norm(pts[:, :2], axis=1) >= 0.06) & (np.linalg.norm(pts[:, :2], axis=1) < 0.07)
+    h.contacts.extend(pts[wall], normals[wall], 2000.0, 1.0)
+    _close_ring(leaf, 0.06, 0.16)
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    job["result"] = "open"
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.SUCCESS, leaf.feedback_message
+    assert leaf.ends["hole probe: touched"] == 1 and leaf.ends["hole probe: open"] == 1
 
 
 WOUND = (7, 0.0, math.radians(340))  # the arm's turn room: joint 7 turns the pad about its normal, and is on its limit

@@ -175,7 +175,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         self.face_z = np.zeros(0)
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
-        self._probed = []  # the valleys probed with the pad's corner (their centres, world xy, m)
+        self._probed = []  # the valleys probed with the pad's corner (see FrontierLeft._probed)
         self._state = "waiting for contact"
         self._reset_motion()
 
@@ -385,10 +385,12 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                         self.feedback_message = f"no reachable frontier left, but {untouched}; {left}) ({counts})"
                         return self._verdict()
                     if self.unexplained_m() > self.max_unexplained_m:
-                        # sweeps first: a valley's sides often hold the stalls at its rim too, and the
-                        # sides they touch may narrow a hole into a valley; then a hole wider than the pad
-                        if self._asked_sweep(point, f"{left} ({counts})") \
-                                or self._asked_probe(point, f"{left} ({counts})", wide=True):
+                        # a hole wider than the pad first: found open, it explains the stalls round its
+                        # rim, which a border cannot reach under (a ring's); found touched, it is probed
+                        # again once sliding has shrunk it; then the sides of the valleys, but not the
+                        # band along a hole found open (what faces it is explained)
+                        if self._asked_probe(point, f"{left} ({counts})", wide=True) \
+                                or self._asked_sweep(point, f"{left} ({counts})", open_rims=False):
                             return Status.FAILURE
                         job = self._reapproach(point)
                         if job is not None:

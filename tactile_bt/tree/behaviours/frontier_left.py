@@ -46,6 +46,10 @@ _SWEPT_HOLES = 2.0
 #: surface.
 _HOLE_POINTS = 5
 _HOLE_AGAIN_M = 0.02
+#: A valley whose probe touched surface is probed again (within ``max_hole_probes``) once sliding
+#: has shrunk it to this share of its area then: the corner met a wall under the rim that the
+#: map had not seen yet, which the flat pad has touched since.
+_HOLE_SHRUNK = 0.8
 _HOLE_CLEARANCE_M = 0.002
 #: Where the corner cannot go deep enough at a point, the points tried instead, as fractions of
 #: the way from it to the valley's middle.
@@ -73,7 +77,8 @@ class FrontierLeft:
     valley_m2 = 0.0
     #: Estimated untouched area (m², table plane) along the rims of holes a probe found open.
     hole_rim_m2 = 0.0
-    #: Centres (world xy, m) of the valleys probed so far.
+    #: The valleys probed so far: ``centre`` (world xy, m), ``area_m2`` then and the probe's
+    #: ``result`` (None until it comes).
     _probed: list = []
     #: Estimated untouched area (m², table plane) beyond the frontier the arm's reach explains.
     beyond_reach_m2 = 0.0
@@ -118,7 +123,10 @@ class FrontierLeft:
                                     "narrower than the pad keeps the estimated coverage under ``min_coverage`` and "
                                     "nothing else is left, the leaf writes a probe of the nearest valley not probed "
                                     "before to ``reapproach_key`` (``{\"hole\": ...}``, for ``hole_probe``) and FAILS, "
-                                    "as for a re-approach, once no sweep is left to ask for.")
+                                    "as for a re-approach, once no sweep is left to ask for. A hole wider than the pad "
+                                    "(up to twice its width) that unexplained frontier faces is probed the same way, "
+                                    "before any sweep. A probe that touched surface leaves its valley to be probed "
+                                    "again once sliding has shrunk it to 80 % of its area then.")
     hole_floor_m = Parameter(0.02, bound=NON_NEGATIVE,
                              doc="A valley whose probes lowered the pad's corner to within this height (m) of the "
                                  "table touching nothing, at its middle and at points 6 mm inside its edge, is a "
@@ -262,10 +270,11 @@ class FrontierLeft:
         :data:`_FAR_M` beyond it."""
         return self.pad.half_diagonal_m + self.corner_margin_m + _FAR_M
 
-    def _sweep(self, point: np.ndarray) -> dict | None:
+    def _sweep(self, point: np.ndarray, open_rims: bool = True) -> dict | None:
         """Write a border sweep to ``reapproach_key`` and return it: of the nearest run of foot
         below the frontier the table explains on plane faces, or else of the nearest side of a
-        valley, not swept before; None when there is none (or sweeps are off)."""
+        valley (with ``open_rims`` False, not of the band along a hole found open), not swept
+        before; None when there is none (or sweeps are off)."""
         if not self.reapproach_key or not self.max_sweeps or self.map is None:
             return None
         if self.sweeps is None:
@@ -277,7 +286,7 @@ class FrontierLeft:
         if run is None:  # every hole in the touched area up to twice the pad across, whether an attempt has
             # failed at its rim or not: a flat pad bridges the narrower, and the sides of the wider may be
             # too steep or too curved for it (the inside of a ring)
-            holes = self.map.valleys(_SWEPT_HOLES * min(self.pad.size_m))
+            holes = self.map.valleys(_SWEPT_HOLES * min(self.pad.size_m), open_rims=open_rims)
             run = self.sweeps.choose(valley_sides(self.map, holes), point[:2])
         if run is None:
             return None
@@ -287,7 +296,8 @@ class FrontierLeft:
         return job
 
     def _probe_hole(self, point: np.ndarray, wide: bool = False) -> dict | None:
-        """Write a probe of the nearest valley not probed before (see ``max_hole_probes``) to
+        """Write a probe of the nearest valley not probed before (or probed and touched, and
+        shrunk since to :data:`_HOLE_SHRUNK` of its area then; see ``max_hole_probes``) to
         ``reapproach_key`` and return it; None when there is none (or probes are off). With
         ``wide``, of the nearest hole in the touched area wider than the pad (up to twice its
         width) at whose rim an attempt failed unexplained instead: the pad fits in it, but
@@ -307,7 +317,9 @@ class FrontierLeft:
         else:
             mask = self.map.valleys(width)
         valleys = probe_points(self.map, mask, _HOLE_POINTS)
-        valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - c) > _HOLE_AGAIN_M for c in self._probed)]
+        valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - p["centre"]) > _HOLE_AGAIN_M
+                                             or (p["result"] == "touched" and v["area_m2"] <= _HOLE_SHRUNK * p["area_m2"])
+                                             for p in self._probed)]
         if not valleys:
             return None
         valley = min(valleys, key=lambda v: float(np.linalg.norm(v["centre"] - point[:2])))
@@ -325,7 +337,7 @@ class FrontierLeft:
                     break
         if len(probes) < len(valley["points"]):
             return None  # the corner cannot go deep enough everywhere: the probe could not tell
-        self._probed.append(valley["centre"])
+        self._probed.append({"centre": valley["centre"], "area_m2": valley["area_m2"], "result": None})
         job = {"hole": {"probes": probes, "cells": valley["cells"], "centre": valley["centre"]},
                "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
@@ -362,10 +374,10 @@ class FrontierLeft:
         self.feedback_message = f"re-approaching the frontier at ({x:.0f}, {y:.0f}) mm the wrist stopped: {detail}"
         return True
 
-    def _asked_sweep(self, point: np.ndarray, detail: str) -> bool:
+    def _asked_sweep(self, point: np.ndarray, detail: str, open_rims: bool = True) -> bool:
         """Ask for a border sweep (:meth:`_sweep`) and say so in the feedback message; False
         when there is none to ask for."""
-        job = self._sweep(point)
+        job = self._sweep(point, open_rims)
         if job is None:
             return False
         x, y = job["sweep"]["centre"] * 1e3
@@ -390,6 +402,9 @@ class FrontierLeft:
         if job.get("return"):  # back to the last contact after a touch found nothing: no frontier news
             return
         if "hole" in job:
+            for probed in self._probed:
+                if probed["result"] is None and np.allclose(probed["centre"], job["hole"]["centre"]):
+                    probed["result"] = job["result"]
             if job["result"] == "open":  # the table seen through it: no surface to scan there
                 self.map.mark_empty(job["hole"]["cells"], opened=True)
             self.ends[f"hole probe: {job['result']}"] += 1
