@@ -827,24 +827,22 @@ def test_a_hole_whose_probe_touched_is_probed_again_once_sliding_has_shrunk_it()
     # the rim the pad had not reached yet; once the pad has touched that wall (the hole in the
     # map now 120 mm across), the hole is probed again, and found open
     leaf, h, pts, normals = _stalled_ring(0.07, 0.16, max_hole_probes=2)
-    _, status = ticks_until_done(h, 10)
-    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
-    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
-    job["result"] = "touched"
-    leaf.initialise()
-    _, status = ticks_until_done(h, 10)
+
+    def probe_found(result):
+        _, status = ticks_until_done(h, 10)
+        assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), \
+            leaf.feedback_message
+        py_trees.blackboard.Blackboard.storage["/scan/reapproach"]["result"] = result
+        leaf.initialise()
+        return ticks_until_done(h, 10)[1]
+
+    probe_found("touched")
     assert not leaf.feedback_message.startswith("probing the hole"), leaf.feedback_message  # not as it was
     wall = (np.linalg.norm(pts[:, :2], axis=1) >= 0.06) & (np.linalg.norm(pts[:, :2], axis=1) < 0.07)
     h.contacts.extend(pts[wall], normals[wall], 2000.0, 1.0)
     _close_ring(leaf, 0.06, 0.16)
     leaf.initialise()
-    _, status = ticks_until_done(h, 10)
-    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
-    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
-    job["result"] = "open"
-    leaf.initialise()
-    _, status = ticks_until_done(h, 10)
-    assert status == Status.SUCCESS, leaf.feedback_message
+    assert probe_found("open") == Status.SUCCESS, leaf.feedback_message
     assert leaf.ends["hole probe: touched"] == 1 and leaf.ends["hole probe: open"] == 1
 
 
