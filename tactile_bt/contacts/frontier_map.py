@@ -21,7 +21,7 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "HOLE", "HOLE_RIM_M", "WRIST",
-           "EXPLAINING", "sector", "describe_left"]
+           "EXPLAINING", "sector", "describe_left", "parts_touching"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -57,6 +57,14 @@ HOLE_RIM_M = 0.004
 #: 8-neighbour offsets (row = y, column = x) and their unit directions.
 _OFFSETS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx])
 _OFFSET_DIRS = _OFFSETS[:, ::-1] / np.linalg.norm(_OFFSETS, axis=1)[:, None]  # (x, y)
+
+
+def parts_touching(labels: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``(n, m)`` bool: the labelled parts of ``labels`` (``ndimage.label``'s output, 0 for
+    none) that ``cells`` (bool, the same shape) touch, an 8-neighbour apart."""
+    near = ndimage.binary_dilation(cells, structure=np.ones((3, 3), dtype=bool))
+    keep = np.unique(labels[near & (labels > 0)])
+    return np.isin(labels, keep)
 
 
 def sector(direction_xy: np.ndarray) -> np.ndarray:
@@ -284,9 +292,7 @@ class FrontierMap:
         if channels:
             found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
         if not open_rims and self.opened[w].any():  # what lies along a hole found open
-            near = ndimage.binary_dilation(self.opened[w], structure=np.ones((3, 3), dtype=bool))
-            rims = np.unique(holes[near & (holes > 0)])
-            found &= ~np.isin(holes, rims)
+            found &= ~parts_touching(holes, self.opened[w])
         out[w] = found
         return out
 

@@ -29,7 +29,7 @@ from py_trees.common import Status
 from scipy import ndimage
 
 from tactile_bt import defaults
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST, parts_touching
 from tactile_bt.contacts.hole_probe import corner_first, probe_points
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
@@ -58,15 +58,6 @@ _HOLE_INWARDS = (0.0, 0.15, 0.3, 0.45)
 _FAR_M = 0.003
 #: Blackboard key of the frontier left (see :meth:`FrontierLeft.frontier_left`).
 FRONTIER_LEFT_KEY = "/scan/frontier_left"
-
-
-def _holes_touching(holes: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """The connected parts of ``holes`` (``(n, n)`` bool) that ``cells`` (``(n, n)`` bool)
-    touch, an 8-neighbour apart."""
-    labels, _ = ndimage.label(holes)
-    near = ndimage.binary_dilation(cells, structure=np.ones((3, 3), dtype=bool))
-    keep = np.unique(labels[near & holes])
-    return np.isin(labels, keep[keep > 0])
 
 
 class FrontierLeft:
@@ -313,7 +304,7 @@ class FrontierLeft:
             failed = np.array([r not in EXPLAINING and r not in (OPEN, GAP) for r in reason], dtype=bool)
             rim = np.zeros_like(mask)
             rim[rows[failed], cols[failed]] = True
-            mask = _holes_touching(mask, rim)
+            mask = parts_touching(ndimage.label(mask)[0], rim)
         else:
             mask = self.map.valleys(width)
         valleys = probe_points(self.map, mask, _HOLE_POINTS)
