@@ -822,6 +822,31 @@ def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_ope
     assert leaf.sweeps is None or not leaf.sweeps.swept
 
 
+@pytest.mark.parametrize("probes", [2, 0])
+def test_a_valley_the_touched_area_encloses_is_probed_before_its_sides_are_swept(probes):
+    # the ring's hole 60 mm across, narrower than the pad, which bridges it: the estimate counts
+    # the whole hole as untouched and falls short; the planner lowers the pad's corner into it
+    # before it sweeps its sides, and the hole found open leaves the estimate but for the band
+    # along its rim, which ends the scan with no sweep made; without probes, it sweeps
+    leaf, h, _, _ = _stalled_ring(0.03, max_hole_probes=probes, max_sweeps=4)
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.coverage < 0.95, leaf.feedback_message
+    if not probes:
+        assert leaf.feedback_message.startswith("sweeping the side of the valley"), leaf.feedback_message
+        return
+    assert leaf.feedback_message.startswith("probing the valley at"), leaf.feedback_message
+    assert leaf.sweeps is None or not leaf.sweeps.swept
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    assert np.linalg.norm(job["hole"]["centre"]) < 0.003
+    job["result"] = "open"
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.SUCCESS, leaf.feedback_message
+    assert 0.95 <= leaf.frontier_left()["estimated_coverage"] < 1.0
+    assert leaf.ends["hole probe: open"] == 1
+    assert leaf.sweeps is None or not leaf.sweeps.swept
+
+
 def test_a_hole_whose_probe_touched_is_probed_again_once_sliding_has_shrunk_it():
     # the hole 140 mm across in the map: the corner, lowered near its edge, touched a wall under
     # the rim the pad had not reached yet; once the pad has touched that wall (the hole in the

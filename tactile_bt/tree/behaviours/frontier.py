@@ -375,10 +375,14 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                     left = describe_left(self.frontier_left())
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         untouched = self.untouched_where()
-                        # then what lies beyond the wrist's stops: turned back, the pad may reach on there
-                        # sweeps first: they touch what they can of a valley's sides, which a probe
-                        # finding the valley open takes out of the estimate
-                        if self._asked_sweep(point, f"{untouched}) ({counts})") \
+                        # a valley the touched area encloses is probed first: found open (a ring's
+                        # hole), it leaves the estimate but for the band along its rim, which the
+                        # probe's points inside its edge bound, and the sides are swept only while
+                        # that band keeps the scan from its coverage; then the sides of valleys (a
+                        # channel's, one found touched), then probes of the others, then what lies
+                        # beyond the wrist's stops: turned back, the pad may reach on there
+                        if self._asked_probe(point, f"{untouched}) ({counts})", enclosed=True) \
+                                or self._asked_sweep(point, f"{untouched}) ({counts})") \
                                 or self._asked_probe(point, f"{untouched}) ({counts})") \
                                 or self._asked_unwind(point, f"{untouched}) ({counts})"):
                             return Status.FAILURE

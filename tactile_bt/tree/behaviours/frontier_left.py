@@ -114,7 +114,8 @@ class FrontierLeft:
                                     "narrower than the pad keeps the estimated coverage under ``min_coverage`` and "
                                     "nothing else is left, the leaf writes a probe of the nearest valley not probed "
                                     "before to ``reapproach_key`` (``{\"hole\": ...}``, for ``hole_probe``) and FAILS, "
-                                    "as for a re-approach, once no sweep is left to ask for. A hole wider than the pad "
+                                    "as for a re-approach: a valley the touched area encloses (a ring's hole) before "
+                                    "any sweep, the others once no sweep is left to ask for. A hole wider than the pad "
                                     "(up to twice its width) that unexplained frontier faces is probed the same way, "
                                     "before any sweep. A probe that touched surface leaves its valley to be probed "
                                     "again once sliding has shrunk it to 80 % of its area then.")
@@ -286,14 +287,15 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
-    def _probe_hole(self, point: np.ndarray, wide: bool = False) -> dict | None:
+    def _probe_hole(self, point: np.ndarray, wide: bool = False, enclosed: bool = False) -> dict | None:
         """Write a probe of the nearest valley not probed before (or probed and touched, and
         shrunk since to :data:`_HOLE_SHRUNK` of its area then; see ``max_hole_probes``) to
         ``reapproach_key`` and return it; None when there is none (or probes are off). With
         ``wide``, of the nearest hole in the touched area wider than the pad (up to twice its
         width) at whose rim an attempt failed unexplained instead: the pad fits in it, but
         slides over no rim that falls away out of its tilt, and cannot tell whether the hole has
-        a floor."""
+        a floor. With ``enclosed``, of the valleys that the touched area encloses only (a ring's
+        hole, not a channel running off the object)."""
         if not self.reapproach_key or self.map is None or len(self._probed) >= self.max_hole_probes \
                 or not math.isfinite(self.table_z_m) or (self.valley_m2 <= 0 and not wide):
             return None
@@ -306,7 +308,7 @@ class FrontierLeft:
             rim[rows[failed], cols[failed]] = True
             mask = parts_touching(ndimage.label(mask)[0], rim)
         else:
-            mask = self.map.valleys(width)
+            mask = self.map.valleys(width, channels=not enclosed)
         valleys = probe_points(self.map, mask, _HOLE_POINTS)
         valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - p["centre"]) > _HOLE_AGAIN_M
                                              or (p["result"] == "touched" and v["area_m2"] <= _HOLE_SHRUNK * p["area_m2"])
@@ -335,11 +337,11 @@ class FrontierLeft:
         write(self.reapproach_key, job)
         return job
 
-    def _asked_probe(self, point: np.ndarray, detail: str, wide: bool = False) -> bool:
-        """Ask for a probe of a valley, or with ``wide`` of a hole wider than the pad
-        (:meth:`_probe_hole`), and say so in the feedback message; False when there is none to
-        ask for."""
-        job = self._probe_hole(point, wide)
+    def _asked_probe(self, point: np.ndarray, detail: str, wide: bool = False, enclosed: bool = False) -> bool:
+        """Ask for a probe of a valley, or with ``wide`` of a hole wider than the pad, or with
+        ``enclosed`` of a valley the touched area encloses (:meth:`_probe_hole`), and say so in
+        the feedback message; False when there is none to ask for."""
+        job = self._probe_hole(point, wide, enclosed)
         if job is None:
             return False
         x, y = job["hole"]["centre"] * 1e3
