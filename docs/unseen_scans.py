@@ -54,6 +54,9 @@ OBJECTS = {
     "torus_mid": ("torus 184 mm across, 44 mm tall, its hole 96 mm (between the pad's width and diagonal), 1e5 N/m",
                   0.044, 60, "  - {type: torus, major_radius: 0.07, minor_radius: 0.022, position: [0, 0, 0.022], "
                              "stiffness: 1.0e5, friction: 0.5}\n", -0.07),
+    "torus_60": ("torus 160 mm across, 50 mm tall, its hole 60 mm (three quarters of the pad), 1e5 N/m", 0.05, 60,
+                 "  - {type: torus, major_radius: 0.055, minor_radius: 0.025, position: [0, 0, 0.025], "
+                 "stiffness: 1.0e5, friction: 0.5}\n", -0.055),
     "pyramid_steep": ("square pyramid, 100 mm base, faces at 45°, 1e5 N/m, turned 30°", 0.05, 60,
                       "  - {type: pyramid, base: 0.10, slope_deg: 45, position: [0, 0, 0], rpy_deg: [0, 0, 30], "
                       "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
