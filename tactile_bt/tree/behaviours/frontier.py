@@ -376,9 +376,9 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         untouched = self.untouched_where()
                         # a valley the touched area encloses is probed first: found open (a ring's
-                        # hole), it leaves the estimate but for the band along its rim, which the
-                        # probe's points inside its edge bound, and the sides are swept only while
-                        # that band keeps the scan from its coverage; then the sides of valleys (a
+                        # hole), it leaves the estimate but for the 4 mm band along its rim, and the
+                        # sides are swept only while that band keeps the scan from its coverage
+                        # (taken on trust: see docs/scanning.md); then the sides of valleys (a
                         # channel's, one found touched), then probes of the others, then what lies
                         # beyond the wrist's stops: turned back, the pad may reach on there
                         if self._asked_probe(point, f"{untouched}) ({counts})", enclosed=True) \
