@@ -227,7 +227,7 @@ class FrontierMap:
         sector."""
         d = np.asarray(direction_xy, dtype=float)[:2]
         s = int(sector(d))
-        rr, cc = self._disc(centre_xy, radius_m)
+        rr, cc = self.disc(centre_xy, radius_m)
         if rows is not None:
             rr = np.concatenate((rr, np.asarray(rows, dtype=int)))
             cc = np.concatenate((cc, np.asarray(cols, dtype=int)))
@@ -238,7 +238,7 @@ class FrontierMap:
             self.cause[rr, cc, k % SECTORS] = c
         return int(self.blocked[rr, cc, s].sum()) - before
 
-    def _disc(self, centre_xy, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+    def disc(self, centre_xy, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
         """Rows and columns of the grid's cells within ``radius_m`` (m, rounded up to cells) of
         the cell of ``centre_xy`` (world xy)."""
         c = self.cell_of(np.asarray(centre_xy, dtype=float)[None, :2])[0]
@@ -367,7 +367,7 @@ class FrontierMap:
     def unblock(self, centre_xy, radius_m: float) -> None:
         """Clear the blocks of the cells within ``radius_m`` (m) of ``centre_xy`` (world xy), in
         every direction: the surface there has been reached another way."""
-        rr, cc = self._disc(centre_xy, radius_m)
+        rr, cc = self.disc(centre_xy, radius_m)
         self.blocked[rr, cc] = False
         self.cause[rr, cc] = -1
         self.closed[rr, cc] = -1
@@ -378,7 +378,7 @@ class FrontierMap:
         reach: :data:`EXPLAINING`) stays the cells' when a slide ends there later for a reason
         that explains nothing (a stall, a lost contact), which says nothing of what lies beyond;
         a later explaining end replaces it, and :meth:`unblock` or another ``close`` clears it."""
-        rr, cc = self._disc(centre_xy, radius_m)
+        rr, cc = self.disc(centre_xy, radius_m)
         c = self._cause_index(cause)  # a later re-approach's finding replaces an earlier one
         self.blocked[rr, cc] = True
         self.cause[rr, cc] = c

@@ -7,7 +7,9 @@ Tilted steeply, corner first, the pad reaches down into it: a corner that comes 
 touching nothing at points spread over the valley finds it open there. :func:`probe_points`
 spreads such points over each valley (its middle, and a ring 6 mm inside its edge), and :func:`corner_first` finds the tilted pose that
 lowers the corner furthest at a point without any part of the pad coming near the touched
-surface. Pure geometry: no time, no robot, no tree.
+surface. By the edge, a corner that cannot get near the table may still tell the wall under the
+rim: :func:`below_rim_z` is how low it must come for that wall to be steeper than the pad may
+tilt. Pure geometry: no time, no robot, no tree.
 
 Layer: contacts.
 """
@@ -22,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.contacts.frontier_map import HOLE_RIM_M
 
-__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn"]
+__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "below_rim_z"]
 
 #: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
 _YAWS = np.radians(np.arange(0.0, 360.0, 15.0))
@@ -39,7 +41,7 @@ def probe_points(m, mask: np.ndarray, most: int = 5, inside_m: float = 0.006, ri
     first, if less), each as far from the others as can be, in turn round the first.
 
     Returns one dict per valley: ``centre`` (world xy, m), ``points`` ``(k, 2)`` (world xy, m),
-    ``cells`` ``(j, 2)``, the world xy (m) of the valley's cells farther than ``rim_m`` from its
+    ``inside_m``, how far (m) the points but the first lie inside the edge, ``cells`` ``(j, 2)``, the world xy (m) of the valley's cells farther than ``rim_m`` from its
     edge (those a probe open at every point marks empty; the band along the rim, where the wall
     under a rim may be, stays the valley's), and ``area_m2``, the valley's area."""
     labels, n = ndimage.label(mask)
@@ -70,7 +72,8 @@ def probe_points(m, mask: np.ndarray, most: int = 5, inside_m: float = 0.006, ri
             gaps = np.diff(np.concatenate((around[order], [around[order][0] + 2 * math.pi])))
             order = np.roll(order, -(int(np.argmax(gaps)) + 1))
         chosen = [chosen[0]] + [chosen[1 + int(j)] for j in order]
-        out.append({"centre": xy[chosen[0]], "points": xy[chosen], "cells": xy[d * m.cell_m > rim_m],
+        out.append({"centre": xy[chosen[0]], "points": xy[chosen], "inside_m": float(ring_depth * m.cell_m),
+                    "cells": xy[d * m.cell_m > rim_m],
                     "area_m2": area})
     return out
 
@@ -135,3 +138,18 @@ def corner_first(m, xy: np.ndarray, size_m: tuple[float, float], max_tilt_rad: f
         return next((R, z) for R, z in found if z == lowest)
     turned = [(least_turn(R, near, size_m), z) for R, z in found if z <= max(lowest, deep_enough_z)]
     return min(turned, key=lambda rz: float(np.linalg.norm(Rotation.from_matrix(rz[0] @ near.T).as_rotvec())))
+
+
+def below_rim_z(m, xy: np.ndarray, inside_m: float, max_tilt_rad: float) -> float:
+    """The height (world z, m) a corner lowered at world ``xy``, ``inside_m`` (m) inside the
+    edge of a valley of the map ``m``, must come down to touching nothing for the surface under
+    the rim there to fall away steeper than ``max_tilt_rad`` (rad) from the horizontal: the
+    highest sample of the touched cells within ``inside_m`` and two cells of ``xy``, less
+    ``inside_m · tan(max_tilt_rad)``; -inf where no touched cell is that near. A corner that
+    touches above it found the wall under the rim within the pad's tilt: surface the flat pad
+    bridged and left."""
+    rr, cc = m.disc(np.asarray(xy, dtype=float), inside_m + 2 * m.cell_m)
+    z = m.z_max[rr, cc][m.count[rr, cc] > 0]
+    if not len(z):
+        return -math.inf
+    return float(np.max(z)) - inside_m * math.tan(max_tilt_rad)

@@ -5,12 +5,13 @@ pure geometry)."""
 import math
 
 import numpy as np
+import pytest
 import numpy.testing as npt
 
 from tactile_bt.contacts.frontier_map import FrontierMap
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.contacts.hole_probe import corner_first, least_turn, pad_rotation, probe_points
+from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, least_turn, pad_rotation, probe_points
 
 PAD = (0.08, 0.08)
 
@@ -104,3 +105,35 @@ def test_the_least_turn_lies_the_same_and_is_the_nearest_to_the_pad():
 
         quarters = [R @ Rotation.from_rotvec([0.0, 0.0, k * math.pi / 2]).as_matrix() for k in range(4)]
         assert angle(Rk) <= min(angle(Q) for Q in quarters) + 1e-12
+
+
+
+@pytest.mark.parametrize("inner_m, touched_deg, wall", [(0.035, 55, False), (0.03, 45, True)])
+def test_a_corner_lowered_by_the_rim_to_the_height_that_tells_its_wall_touches_only_a_wall_within_the_tilt(
+        inner_m, touched_deg, wall):
+    # a ring 50 mm tall, its tube 25 mm across, touched where the flat pad bridging its hole
+    # reached: the shipped torus (hole 70 mm, touched to 55°: what is left under the rim is the
+    # wall, steeper than 60°) and a ring whose hole is 60 mm (touched to 45°: the inner side
+    # within the pad's tilt goes on under the rim)
+    rng = np.random.default_rng(5)
+    major, tube, tilt = inner_m + 0.025, 0.025, math.radians(70)
+    a = rng.uniform(0.0, 2 * math.pi, 60000)
+    b = rng.uniform(-math.radians(touched_deg), math.radians(touched_deg), 60000)
+    r = major + tube * np.sin(b)
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.12)
+    m.add(np.column_stack((r * np.cos(a), r * np.sin(a), 0.025 + tube * np.cos(b))),
+          np.column_stack((np.sin(b) * np.cos(a), np.sin(b) * np.sin(a), np.cos(b))))
+    v = probe_points(m, m.valleys(min(PAD)), most=5)[0]
+    assert 0.004 < v["inside_m"] <= 0.006
+    for xy in v["points"][1:]:
+        z = below_rim_z(m, xy, v["inside_m"], tilt)
+        away = np.linalg.norm(m.centre_of(*np.nonzero(m.count > 0)) - xy, axis=1)
+        drop = v["inside_m"] * math.tan(tilt)
+        top = [np.max(m.z_max[m.count > 0][away <= v["inside_m"] + d]) for d in (0.002, 0.007)]
+        assert top[0] - drop <= z <= top[1] - drop                      # the rim's highest sample near it, less the drop
+        _, corner_z = corner_first(m, xy, PAD, tilt, 0.002, 0.003)
+        assert corner_z < z                                             # the corner gets that low there
+        off = major - np.linalg.norm(xy)                                # the ring's own surface at the point
+        surface_z = 0.025 + math.sqrt(tube**2 - off**2) if abs(off) < tube else -math.inf
+        assert (surface_z > z) == wall                                  # touched before it: a wall within the tilt
+    assert below_rim_z(m, np.zeros(2), 0.006, tilt) == -math.inf        # nothing touched near the middle

@@ -30,7 +30,7 @@ from scipy import ndimage
 
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST, parts_touching
-from tactile_bt.contacts.hole_probe import corner_first, probe_points
+from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points
 from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from tactile_bt.tree.blackboard import read_or, write
@@ -51,8 +51,9 @@ _HOLE_AGAIN_M = 0.02
 #: map had not seen yet, which the flat pad has touched since.
 _HOLE_SHRUNK = 0.8
 _HOLE_CLEARANCE_M = 0.002
-#: Where the corner cannot go deep enough at a point, the points tried instead, as fractions of
-#: the way from it to the valley's middle.
+#: Where the corner cannot go deep enough at a point (nor, by the edge of a valley narrower than
+#: the pad, low enough to tell the wall under the rim: ``below_rim_z``), the points tried instead,
+#: as fractions of the way from it to the valley's middle.
 _HOLE_INWARDS = (0.0, 0.15, 0.3, 0.45)
 #: A far probe's pad lies this far (m) beyond the frontier at its nearest corner.
 _FAR_M = 0.003
@@ -124,7 +125,12 @@ class FrontierLeft:
                                  "table touching nothing, at its middle and at points 6 mm inside its edge, is a "
                                  "hole (the table seen through a ring): its cells farther than 4 mm from its edge "
                                  "are marked empty and leave the estimate; the band along its rim stays counted. A "
-                                 "floor lower than this in a hollow narrower than the pad is taken for the table.")
+                                 "floor lower than this in a hollow narrower than the pad is taken for the table. "
+                                 "Where no pose gets the corner this low at a point by the edge of a valley "
+                                 "narrower than the pad, the point is probed where it is if the corner gets below "
+                                 "where the wall under the rim would stand at the tilt limit (the rim's highest "
+                                 "sample near it less 6 mm · tan 70°): touching above, it met surface within the "
+                                 "pad's tilt, and the valley stays counted.")
     foot_height_m = Parameter(0.002, bound=POSITIVE,
                               doc="Height (m) above the table of the level pad sweeping a face's foot: its border "
                                   "touches the face this high.")
@@ -319,12 +325,15 @@ class FrontierLeft:
         floor = self.table_z_m + self.table_clearance_m
         probes, near = [], self.pose[:3, :3]
         deep = self.table_z_m + self.hole_floor_m
-        for point_xy in valley["points"]:  # each pose deep enough turned as little as it can be from the one before
+        for k, point_xy in enumerate(valley["points"]):  # each pose deep enough turned as little as it can be from the one before
             for inwards in _HOLE_INWARDS:  # where the corner cannot go deep enough, a little nearer the middle
                 xy = point_xy + inwards * (valley["centre"] - point_xy)
+                enough = deep
+                if k and not inwards and not wide:  # under the rim of a valley the pad bridges: low enough to tell its wall
+                    enough = max(deep, below_rim_z(self.map, xy, valley["inside_m"], self.max_tilt_rad))
                 pose = corner_first(self.map, xy, self.pad.size_m, self.max_tilt_rad, _HOLE_CLEARANCE_M, floor, near,
-                                    deep_enough_z=deep - _HOLE_CLEARANCE_M)
-                if pose is not None and pose[1] <= deep:
+                                    deep_enough_z=enough - _HOLE_CLEARANCE_M)
+                if pose is not None and pose[1] <= enough:
                     probes.append((xy, pose[0], pose[1]))
                     near = pose[0]
                     break
