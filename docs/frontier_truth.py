@@ -10,7 +10,9 @@ samples (from the scene's own shape), how far those samples lie off the object (
 in the air, where the imprint of an edge contact reaches beyond the edge), and how flat the
 samples within 4 mm lie (the spread off their fitted plane over the spread across it: a plane
 fit tells the slope only where this is small). A first line says the same of every contact
-sample.
+sample, and a last one sets the untouched area the scan's estimate counts (in the table plane)
+beside what the contacts truly left of the scan region (in the table plane and on the surface,
+whose area the true coverage weighs).
 
     python docs/frontier_truth.py --scene sim/scan_torus.yaml --seed 0
     python docs/frontier_truth.py --unseen torus_wide --seed 0
@@ -121,6 +123,33 @@ def main(argv: list[str] | None = None) -> None:
         away = off_object(scene.objects, centres) * 1e3
         print(f"| {name or 'open'} | {len(sel)} | {np.nanmedian(recorded):.0f} | {lo:.0f} / {mid:.0f} / {hi:.0f} | "
               f"{np.median(away):.1f} / {away.max():.1f} | {np.nanmedian(flatness(points, centres)):.2f} |")
+    print(left_untouched(scene, leaf.frontier_left(), points))
+
+
+def left_untouched(scene, left: dict, points: np.ndarray) -> str:
+    """One line: the untouched area the estimate counts (cm², table plane: near the table, in
+    valleys, beyond reach, along open holes' rims) and what the contact ``points`` truly left of
+    the scan region (farther than the coverage radius from every contact), in the table plane
+    and on the surface."""
+    from scipy.spatial import cKDTree
+
+    from tactile_bt.mission import accuracy
+
+    region = accuracy.check_region((getattr(scene, "data", None) or {}).get("scan_region"))
+    _, obj = accuracy.scan_object(scene, region)
+    t_pts, t_nrm, t_w = accuracy.sample_surface(accuracy.true_surface(obj))
+    inside = accuracy.region_mask(t_pts, t_nrm, region)
+    d, _ = cKDTree(points).query(t_pts, distance_upper_bound=1.01 * accuracy.COVERAGE_RADIUS_M)
+    missed = inside & (d > accuracy.COVERAGE_RADIUS_M)
+    flat = t_w * np.abs(t_nrm[:, 2])
+    parts = {"near the table": left["untouched_near_table_m2"], "in valleys": left["untouched_in_valleys_m2"],
+             "beyond reach": left["untouched_beyond_reach_m2"], "at open holes' rims": left["untouched_at_hole_rims_m2"]}
+    counted = sum(parts.values())
+    detail = ", ".join(f"{v * 1e4:.1f} {k}" for k, v in parts.items() if v > 0) or "none"
+    return (f"untouched: the estimate counts {counted * 1e4:.1f} cm² in the table plane ({detail}; estimated "
+            f"coverage {left['estimated_coverage']:.3f}); the contacts left {flat[missed].sum() * 1e4:.1f} cm² of the "
+            f"region in the table plane (of {flat[inside].sum() * 1e4:.1f}) and {t_w[missed].sum() * 1e4:.1f} cm² on "
+            f"its surface (of {t_w[inside].sum() * 1e4:.1f}; true coverage {1 - t_w[missed].sum() / t_w[inside].sum():.3f})")
 
 
 if __name__ == "__main__":

@@ -57,6 +57,12 @@ OBJECTS = {
     "torus_60": ("torus 160 mm across, 50 mm tall, its hole 60 mm (three quarters of the pad), 1e5 N/m", 0.05, 60,
                  "  - {type: torus, major_radius: 0.055, minor_radius: 0.025, position: [0, 0, 0.025], "
                  "stiffness: 1.0e5, friction: 0.5}\n", -0.055),
+    "torus_64": ("torus 164 mm across, 50 mm tall, its hole 64 mm (four fifths of the pad), 1e5 N/m", 0.05, 60,
+                 "  - {type: torus, major_radius: 0.057, minor_radius: 0.025, position: [0, 0, 0.025], "
+                 "stiffness: 1.0e5, friction: 0.5}\n", -0.057),
+    "torus_54": ("torus 154 mm across, 50 mm tall, its hole 54 mm (two thirds of the pad), 1e5 N/m", 0.05, 60,
+                 "  - {type: torus, major_radius: 0.052, minor_radius: 0.025, position: [0, 0, 0.025], "
+                 "stiffness: 1.0e5, friction: 0.5}\n", -0.052),
     "pyramid_steep": ("square pyramid, 100 mm base, faces at 45°, 1e5 N/m, turned 30°", 0.05, 60,
                       "  - {type: pyramid, base: 0.10, slope_deg: 45, position: [0, 0, 0], rpy_deg: [0, 0, 30], "
                       "stiffness: 1.0e5, friction: 0.5}\n", 0.0),

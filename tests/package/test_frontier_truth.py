@@ -48,3 +48,27 @@ def test_samples_on_a_plane_lie_flat_and_a_scattered_blob_does_not():
     assert TRUTH.flatness(plane, centre)[0] < 0.1
     assert TRUTH.flatness(blob, centre)[0] > 0.5
     assert np.isnan(TRUTH.flatness(plane[:5], centre)[0])
+
+
+def test_what_the_contacts_left_is_measured_on_the_surface_and_in_the_table_plane():
+    # contacts over the torus's upper side but its inner quarter (tilted 30-60 deg towards the hole):
+    # that band is left, steeper on the surface than in the table plane
+    scene = load_scene(REPO / "sim" / "scan_torus.yaml")
+    R, r, zc = 0.06, 0.025, 0.025
+    rng = np.random.default_rng(7)
+    around, down = rng.uniform(0.0, 2 * np.pi, 200000), rng.uniform(-np.pi / 3, np.pi / 6, 200000)
+    radius = R - r * np.sin(down)  # down > 0: towards the hole
+    points = np.column_stack((radius * np.cos(around), radius * np.sin(around), zc + r * np.cos(down)))
+    estimate = {"untouched_near_table_m2": 0.0, "untouched_in_valleys_m2": 0.001, "untouched_beyond_reach_m2": 0.0,
+                "untouched_at_hole_rims_m2": 0.0, "estimated_coverage": 0.9}
+    line = TRUTH.left_untouched(scene, estimate, points)
+    assert "the estimate counts 10.0 cm² in the table plane (10.0 in valleys; estimated coverage 0.900)" in line
+    first = np.pi / 6 + 0.002 / r  # the contacts cover 2 mm of the band; the region ends at 60 deg
+    band_surface = 2 * np.pi * r * (R * (np.pi / 3 - first) + r * (np.cos(np.pi / 3) - np.cos(first)))
+    band_plane = np.pi * ((R - r * np.sin(first)) ** 2 - (R - r * np.sin(np.pi / 3)) ** 2)
+    surface = float(line.split(" cm² on its surface")[0].split(" and ")[-1])
+    plane = float(line.split(" cm² of the region in the table plane")[0].split("the contacts left ")[-1])
+    # within the true mesh's facets and the fuzzy edge of what the contacts cover
+    npt.assert_allclose(surface, band_surface * 1e4, rtol=0.1)
+    npt.assert_allclose(plane, band_plane * 1e4, rtol=0.1)
+    npt.assert_allclose(surface / plane, band_surface / band_plane, rtol=0.03)  # a steep band weighs more on the surface
