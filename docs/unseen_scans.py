@@ -29,6 +29,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import exploration_scenes  # noqa: E402  (docs/exploration_scenes.py, beside this file)
 
+def _torus(major_m: float, minor_m: float, hole: str) -> tuple:
+    """The entry of a ring lying flat on the table (1e5 N/m), the pad starting over its tube:
+    ``hole`` says how its hole compares with the pad."""
+    mm = [round(1e3 * v) for v in (2 * (major_m + minor_m), 2 * minor_m, 2 * (major_m - minor_m))]
+    return (f"torus {mm[0]} mm across, {mm[1]} mm tall, its hole {mm[2]} mm ({hole}), 1e5 N/m", 2 * minor_m, 60,
+            f"  - {{type: torus, major_radius: {major_m:g}, minor_radius: {minor_m:g}, position: [0, 0, {minor_m:g}], "
+            "stiffness: 1.0e5, friction: 0.5}\n", -major_m)
+
+
 #: name -> (description, top height (m), region's largest angle (deg), objects YAML, pad start x (m)).
 #: A lumpy mesh's top is known only once it is made: its entry gives the mesh's name instead.
 OBJECTS = {
@@ -45,24 +54,12 @@ OBJECTS = {
                       0.06 * math.tan(math.radians(35)), 60,
                       "  - {type: pyramid, base: 0.12, slope_deg: 35, position: [0, 0, 0], rpy_deg: [0, 0, 10], "
                       "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
-    "torus_wide": ("torus 220 mm across, 60 mm tall, its hole 100 mm (wider than the pad), 1e5 N/m", 0.06, 60,
-                   "  - {type: torus, major_radius: 0.08, minor_radius: 0.03, position: [0, 0, 0.03], "
-                   "stiffness: 1.0e5, friction: 0.5}\n", -0.08),
-    "torus_narrow": ("torus 160 mm across, 60 mm tall, its hole 40 mm (half the pad), 1e5 N/m", 0.06, 60,
-                     "  - {type: torus, major_radius: 0.05, minor_radius: 0.03, position: [0, 0, 0.03], "
-                     "stiffness: 1.0e5, friction: 0.5}\n", -0.05),
-    "torus_mid": ("torus 184 mm across, 44 mm tall, its hole 96 mm (between the pad's width and diagonal), 1e5 N/m",
-                  0.044, 60, "  - {type: torus, major_radius: 0.07, minor_radius: 0.022, position: [0, 0, 0.022], "
-                             "stiffness: 1.0e5, friction: 0.5}\n", -0.07),
-    "torus_60": ("torus 160 mm across, 50 mm tall, its hole 60 mm (three quarters of the pad), 1e5 N/m", 0.05, 60,
-                 "  - {type: torus, major_radius: 0.055, minor_radius: 0.025, position: [0, 0, 0.025], "
-                 "stiffness: 1.0e5, friction: 0.5}\n", -0.055),
-    "torus_64": ("torus 164 mm across, 50 mm tall, its hole 64 mm (four fifths of the pad), 1e5 N/m", 0.05, 60,
-                 "  - {type: torus, major_radius: 0.057, minor_radius: 0.025, position: [0, 0, 0.025], "
-                 "stiffness: 1.0e5, friction: 0.5}\n", -0.057),
-    "torus_54": ("torus 154 mm across, 50 mm tall, its hole 54 mm (two thirds of the pad), 1e5 N/m", 0.05, 60,
-                 "  - {type: torus, major_radius: 0.052, minor_radius: 0.025, position: [0, 0, 0.025], "
-                 "stiffness: 1.0e5, friction: 0.5}\n", -0.052),
+    "torus_wide": _torus(0.08, 0.03, "wider than the pad"),
+    "torus_narrow": _torus(0.05, 0.03, "half the pad"),
+    "torus_mid": _torus(0.07, 0.022, "between the pad's width and diagonal"),
+    "torus_60": _torus(0.055, 0.025, "three quarters of the pad"),
+    "torus_64": _torus(0.057, 0.025, "four fifths of the pad"),
+    "torus_54": _torus(0.052, 0.025, "two thirds of the pad"),
     "pyramid_steep": ("square pyramid, 100 mm base, faces at 45°, 1e5 N/m, turned 30°", 0.05, 60,
                       "  - {type: pyramid, base: 0.10, slope_deg: 45, position: [0, 0, 0], rpy_deg: [0, 0, 30], "
                       "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
