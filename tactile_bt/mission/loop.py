@@ -159,17 +159,21 @@ def running_reason(root: py_trees.behaviour.Behaviour, duration_s: float) -> str
     """Why a mission whose time ran out had not ended, for a tree that ends its task by itself
     (one of its nodes ``reports_success``, :func:`success_reason`): its duration and what the
     deepest running node that says anything was doing (``"600 s of mission time ran out while
-    frontier_guidance was running: sliding to the frontier"``). "" for a tree that runs for the
-    mission's time (a servo experiment): running out of it is its end."""
+    frontier_guidance was running: sliding to the frontier"``), and what each task had achieved
+    so far (its ``standing()``, e.g. the scan's estimated coverage). "" for a tree that runs for
+    the mission's time (a servo experiment): running out of it is its end."""
     nodes = tree_nodes(root)
-    if not any(getattr(node, "reports_success", False) for node, _, _ in nodes):
+    tasks = [node for node, _, _ in nodes if getattr(node, "reports_success", False)]
+    if not tasks:
         return ""
+    # what each task had achieved (the scan's estimate, ...), whatever step was running
+    so_far = "".join(f"; {said}" for said in (getattr(node, "standing", lambda: "")() for node in tasks) if said)
     running = [(depth, node) for node, _, depth in nodes if node.status == Status.RUNNING and node.feedback_message]
     if not running:
-        return f"{duration_s:g} s of mission time ran out"
+        return f"{duration_s:g} s of mission time ran out{so_far}"
     # the first of the deepest: the task's own step, not a guard beside it
     _, node = max(running, key=lambda entry: entry[0])
-    return f"{duration_s:g} s of mission time ran out while {node.name} was running: {node.feedback_message}"
+    return f"{duration_s:g} s of mission time ran out while {node.name} was running: {node.feedback_message}{so_far}"
 
 
 def root_outcome(root: py_trees.behaviour.Behaviour) -> tuple[str, str] | None:

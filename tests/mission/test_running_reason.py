@@ -44,3 +44,20 @@ def test_the_step_the_task_is_on_is_named_not_a_guard_running_beside_it():
     root = _ticked(_Holding("adapt_force_target"), py_trees.composites.Parallel(
         "scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(), children=[task, step]))
     assert running_reason(root, 60.0).startswith("60 s of mission time ran out while frontier_guidance was running")
+
+
+class _Scanning(_Searching):
+    def standing(self):
+        return "the scan so far: about 19 % of the surface untouched (38.2 cm² in valleys narrower than the pad)"
+
+
+def test_what_the_task_had_achieved_follows_what_was_running_when_the_time_ran_out():
+    # the scan had asked for a sweep: the sweep ran, and the scan's estimate says what is left
+    task = py_trees.composites.Sequence("task", memory=True, children=[_Scanning("frontier_guidance")])
+    step = py_trees.composites.Sequence("retry", memory=True, children=[_Holding("border_sweep")])
+    root = _ticked(py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
+                                                children=[task, step]))
+    reason = running_reason(root, 600.0)
+    assert reason.startswith("600 s of mission time ran out while frontier_guidance was running")
+    assert reason.endswith("; the scan so far: about 19 % of the surface untouched (38.2 cm² in valleys narrower "
+                           "than the pad)")

@@ -831,6 +831,9 @@ def test_a_valley_the_touched_area_encloses_is_probed_before_its_sides_are_swept
     leaf, h, _, _ = _stalled_ring(0.03, max_hole_probes=probes, max_sweeps=4)
     _, status = ticks_until_done(h, 10)
     assert status == Status.FAILURE and leaf.coverage < 0.95, leaf.feedback_message
+    # had the time run out now, the mission would say what the scan had left, and where
+    assert leaf.standing().startswith(f"the scan so far: about {100 * (1 - leaf.coverage):.0f} % of the surface untouched")
+    assert "in valleys narrower than the pad" in leaf.standing()
     if not probes:
         assert leaf.feedback_message.startswith("sweeping the side of the valley"), leaf.feedback_message
         return

@@ -95,6 +95,12 @@ class TactileBehaviour(LazyFeedback, Parameterised, py_trees.behaviour.Behaviour
     #: and feedback message become the mission's reason (:func:`tactile_bt.mission.loop.success_reason`).
     reports_success: bool = False
 
+    def standing(self) -> str:
+        """What a task that ends by itself (``reports_success``) has achieved so far, for the
+        reason of a mission whose time ran out before it ended
+        (:func:`tactile_bt.mission.loop.running_reason`); "" when there is nothing to say."""
+        return ""
+
     def __init__(self, name: str | None = None, *args, **parameters) -> None:
         values = self.check_parameters(name, parameters, args)
         py_trees.behaviour.Behaviour.__init__(self, name=values["name"])

@@ -236,6 +236,18 @@ class FrontierLeft:
                          "the arm could not reach")
         return f"about {100 * (1 - self.coverage):.0f} % of the surface untouched ({'; '.join(where)}"
 
+    def standing(self) -> str:
+        """The scan so far, for a mission whose time ran out (see ``TactileBehaviour.standing``):
+        how much of the surface the estimate leaves untouched and where, and how much of the
+        frontier left is unexplained; "" before the first contact."""
+        if self.map is None:
+            return ""
+        left = self.below_m2 + self.valley_m2 + self.hole_rim_m2 + self.beyond_reach_m2
+        parts = [f"{self.untouched_where()})" if left > 0 else f"estimated coverage {self.coverage:.2f}"]
+        if self.unexplained_m() > 0:
+            parts.append(f"{self.unexplained_m() * 1e3:.0f} mm of the frontier left unexplained")
+        return "the scan so far: " + ", ".join(parts)
+
     def unexplained_m(self) -> float:
         """Length (m) of the frontier left without an explaining reason."""
         return sum(v for k, v in self.left.items() if k not in EXPLAINING)
