@@ -126,9 +126,13 @@ def _job(args: tuple) -> dict:
 def _short(reason: str) -> str:
     """A reason without the counts in brackets (``(171 targets, …)``, ``(402 stall, …)``) and the
     lists after a semicolon, and without the name of the node that gave it; a joint held at its
-    limit (``; joint 4 held at its upper limit (+120°) since …``) stays."""
+    limit (``; joint 4 held at its upper limit (+120°) since …``) stays, and so does what a task
+    had achieved when the mission's time ran out (``; the scan so far: …``)."""
     for leaf in ("cable_end: ", "frontier_guidance: ", "end of cable: "):
         reason = reason.replace(leaf, "")
+    reason, so_far, tail = reason.partition("; the scan so far: ")
+    if so_far:
+        return f"{_short(reason)}{so_far}{tail}"
     held = re.search(r"; (joint \d+ held at its \w+ limit)", reason)
     counts = re.search(r" \(\d+ [a-z]", reason)
     cut = min((i for i in (counts.start() if counts else -1, reason.find(";")) if i > 0), default=len(reason))
