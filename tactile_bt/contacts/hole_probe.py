@@ -5,9 +5,9 @@ A flat pad bridges a hollow narrower than itself (a valley,
 surface it left untouched (a bowl's floor) or only the table seen through it (a ring's hole).
 Tilted steeply, corner first, the pad reaches down into it: a corner that comes near the table
 touching nothing at points spread over the valley finds it open there. :func:`probe_points`
-spreads such points over each valley (its middle, and a ring 6 mm inside its edge), and :func:`corner_first` finds the tilted pose that
-lowers the corner furthest at a point without any part of the pad coming near the touched
-surface. By the edge, a corner that cannot get near the table may still tell the wall under the
+spreads such points over each valley (its middle, and a ring 6 mm inside its edge), and
+:func:`corner_first` finds the tilted pose that lowers the corner furthest at a point without
+any part of the pad coming near the touched surface. By the edge, a corner that cannot get near the table may still tell the wall under the
 rim: :func:`below_rim_z` is how low it must come for that wall to be steeper than the pad may
 tilt. Pure geometry: no time, no robot, no tree.
 
@@ -41,9 +41,10 @@ def probe_points(m, mask: np.ndarray, most: int = 5, inside_m: float = 0.006, ri
     first, if less), each as far from the others as can be, in turn round the first.
 
     Returns one dict per valley: ``centre`` (world xy, m), ``points`` ``(k, 2)`` (world xy, m),
-    ``inside_m``, how far (m) the points but the first lie inside the edge, ``cells`` ``(j, 2)``, the world xy (m) of the valley's cells farther than ``rim_m`` from its
-    edge (those a probe open at every point marks empty; the band along the rim, where the wall
-    under a rim may be, stays the valley's), and ``area_m2``, the valley's area."""
+    ``inside_m``, how far (m) the points but the first lie inside the edge, ``cells`` ``(j, 2)``,
+    the world xy (m) of the valley's cells farther than ``rim_m`` from its edge (those a probe
+    open at every point marks empty; the band along the rim, where the wall under a rim may be,
+    stays the valley's), and ``area_m2``, the valley's area."""
     labels, n = ndimage.label(mask)
     out = []
     for k in range(1, n + 1):
