@@ -2,22 +2,9 @@
 reader needs: the counts and lists go, a joint held at its limit and what a scan had left when
 its time ran out stay."""
 
-import importlib.util
-import sys
-from pathlib import Path
+from docs_scripts import load_docs_script
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def _table():
-    sys.path.insert(0, str(REPO / "docs"))
-    spec = importlib.util.spec_from_file_location("exploration_scenes", REPO / "docs" / "exploration_scenes.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-TABLE = _table()
+TABLE = load_docs_script("exploration_scenes")
 
 
 def test_a_failure_s_reason_loses_its_counts_and_lists():

@@ -4,19 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-import importlib.util
-import sys
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[2]
+from docs_scripts import load_docs_script
 
 
 def _checker():
-    spec = importlib.util.spec_from_file_location("check_figures", ROOT / "docs" / "check_figures.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["check_figures"] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return load_docs_script("check_figures")
 
 
 @pytest.mark.slow

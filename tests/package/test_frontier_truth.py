@@ -1,27 +1,18 @@
 """docs/frontier_truth.py reads the object's true slope and how far a sample lies off it from the
 scene's own shape, and tells samples lying on a plane from scattered ones."""
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
 import numpy.testing as npt
 
 from tactile_bt.sim.scene import load_scene
+from docs_scripts import load_docs_script
 
 REPO = Path(__file__).resolve().parents[2]
 
 
-def _module():
-    sys.path.insert(0, str(REPO / "docs"))
-    spec = importlib.util.spec_from_file_location("frontier_truth", REPO / "docs" / "frontier_truth.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-TRUTH = _module()
+TRUTH = load_docs_script("frontier_truth")
 
 
 def test_the_true_tilt_on_the_shipped_torus_follows_its_tube():

@@ -1,24 +1,13 @@
 """The objects docs/unseen_scans.py builds are valid scenes: each loads, lies on the table and has
 the pad start just above its top, as the shipped scan scenes do."""
 
-import importlib.util
-from pathlib import Path
 
 import pytest
 
 from tactile_bt.sim.scene import load_scene
+from docs_scripts import load_docs_script
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def _unseen():
-    spec = importlib.util.spec_from_file_location("unseen_scans", REPO / "docs" / "unseen_scans.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-UNSEEN = _unseen()
+UNSEEN = load_docs_script("unseen_scans")
 
 
 @pytest.mark.parametrize("name", sorted(UNSEEN.OBJECTS))
