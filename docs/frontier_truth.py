@@ -131,16 +131,13 @@ def left_untouched(scene, left: dict, points: np.ndarray) -> str:
     valleys, beyond reach, along open holes' rims) and what the contact ``points`` truly left of
     the scan region (farther than the coverage radius from every contact), in the table plane
     and on the surface."""
-    from scipy.spatial import cKDTree
-
     from tactile_bt.mission import accuracy
 
-    region = accuracy.check_region((getattr(scene, "data", None) or {}).get("scan_region"))
+    region = accuracy.scene_region(scene)
     _, obj = accuracy.scan_object(scene, region)
     t_pts, t_nrm, t_w = accuracy.sample_surface(accuracy.true_surface(obj))
     inside = accuracy.region_mask(t_pts, t_nrm, region)
-    d, _ = cKDTree(points).query(t_pts, distance_upper_bound=1.01 * accuracy.COVERAGE_RADIUS_M)
-    missed = inside & (d > accuracy.COVERAGE_RADIUS_M)
+    missed = inside & ~accuracy.covered_by(t_pts, points)
     flat = t_w * np.abs(t_nrm[:, 2])
     parts = {"near the table": left["untouched_near_table_m2"], "in valleys": left["untouched_in_valleys_m2"],
              "beyond reach": left["untouched_beyond_reach_m2"], "at open holes' rims": left["untouched_at_hole_rims_m2"]}

@@ -38,8 +38,8 @@ from scipy.spatial import cKDTree
 from tactile_bt import defaults
 from tactile_bt.sim.region import check_region
 
-__all__ = ["true_surface", "scan_object", "sample_surface", "region_mask", "surface_distance",
-           "reconstruction_metrics", "scan_settings", "contact_continuity", "evaluate_scan",
+__all__ = ["true_surface", "scan_object", "sample_surface", "region_mask", "surface_distance", "covered_by",
+           "scene_region", "reconstruction_metrics", "scan_settings", "contact_continuity", "evaluate_scan",
            "SAMPLE_SPACING_M", "COVERAGE_RADIUS_M"]
 
 #: Spacing (m) of the surface samples the metrics are computed on.
@@ -162,6 +162,20 @@ def _wmean(values: np.ndarray, weights: np.ndarray) -> float | None:
     return float(np.sum(values * weights) / total) if total > 0 else None
 
 
+def covered_by(points: np.ndarray, contacts: np.ndarray) -> np.ndarray:
+    """Which of the surface samples ``points`` ``(n, 3)`` (m) lie within
+    :data:`COVERAGE_RADIUS_M` of one of the ``contacts`` ``(k, >=3)`` (m, world): the
+    ``coverage`` of :func:`reconstruction_metrics`."""
+    c = np.asarray(contacts, dtype=float)[:, :3]
+    d, _ = cKDTree(c).query(points, distance_upper_bound=COVERAGE_RADIUS_M * 1.01)
+    return d <= COVERAGE_RADIUS_M
+
+
+def scene_region(scene) -> dict:
+    """The scan region a scene sets (its ``scan_region``, checked; ``{}``: the whole object)."""
+    return check_region((getattr(scene, "data", None) or {}).get("scan_region"))
+
+
 def reconstruction_metrics(true_mesh, surface_mesh=None, contacts: np.ndarray | None = None,
                            region: dict | None = None, spacing_m: float = SAMPLE_SPACING_M) -> dict:
     """The scan figures of the module docstring.
@@ -216,9 +230,7 @@ def reconstruction_metrics(true_mesh, surface_mesh=None, contacts: np.ndarray | 
             out[f"fscore_{round(tau * 1e3)}mm"] = float(f)
     out["coverage"] = out["coverage_total"] = None
     if contacts is not None and len(contacts):
-        c = np.asarray(contacts, dtype=float)[:, :3]
-        d, _ = cKDTree(c).query(t_pts, distance_upper_bound=COVERAGE_RADIUS_M * 1.01)
-        covered = (d <= COVERAGE_RADIUS_M).astype(float)
+        covered = covered_by(t_pts, contacts).astype(float)
         out["coverage"] = _wmean(covered[in_region], t_w[in_region])
         out["coverage_total"] = _wmean(covered, t_w)
     return out
@@ -239,8 +251,7 @@ def scan_settings(method: str, scene, scan_region: dict | None = None) -> dict:
 
     if method not in METHODS:
         raise ValueError(f"reconstruct: unknown method {method!r}; valid: none, {', '.join(METHODS)}")
-    region = scan_region if scan_region is not None else (getattr(scene, "data", None) or {}).get("scan_region")
-    return {"method": method, "region": check_region(region)}
+    return {"method": method, "region": check_region(scan_region) if scan_region is not None else scene_region(scene)}
 
 
 def contact_continuity(t: np.ndarray, in_contact: np.ndarray) -> dict:
