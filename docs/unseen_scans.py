@@ -29,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import exploration_scenes  # noqa: E402  (docs/exploration_scenes.py, beside this file)
 
+
 def _torus(major_m: float, minor_m: float, hole: str) -> tuple:
     """The entry of a ring lying flat on the table (1e5 N/m), the pad starting over its tube:
     ``hole`` says how its hole compares with the pad."""

@@ -7,9 +7,9 @@ Tilted steeply, corner first, the pad reaches down into it: a corner that comes 
 touching nothing at points spread over the valley finds it open there. :func:`probe_points`
 spreads such points over each valley (its middle, and a ring 6 mm inside its edge), and
 :func:`corner_first` finds the tilted pose that lowers the corner furthest at a point without
-any part of the pad coming near the touched surface. By the edge, a corner that cannot get near the table may still tell the wall under the
-rim: :func:`below_rim_z` is how low it must come for that wall to be steeper than the pad may
-tilt. Pure geometry: no time, no robot, no tree.
+any part of the pad coming near the touched surface. By the edge, a corner that cannot get near
+the table may still tell the wall under the rim: :func:`below_rim_z` is how low it must come for
+that wall to be steeper than the pad may tilt. Pure geometry: no time, no robot, no tree.
 
 Layer: contacts.
 """

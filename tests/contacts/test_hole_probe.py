@@ -5,8 +5,8 @@ pure geometry)."""
 import math
 
 import numpy as np
-import pytest
 import numpy.testing as npt
+import pytest
 
 from tactile_bt.contacts.frontier_map import FrontierMap
 from scipy.spatial.transform import Rotation
@@ -105,7 +105,6 @@ def test_the_least_turn_lies_the_same_and_is_the_nearest_to_the_pad():
 
         quarters = [R @ Rotation.from_rotvec([0.0, 0.0, k * math.pi / 2]).as_matrix() for k in range(4)]
         assert angle(Rk) <= min(angle(Q) for Q in quarters) + 1e-12
-
 
 
 @pytest.mark.parametrize("inner_m, touched_deg, wall", [(0.035, 55, False), (0.03, 45, True)])

@@ -244,8 +244,9 @@ class FrontierLeft:
             return ""
         left = self.below_m2 + self.valley_m2 + self.hole_rim_m2 + self.beyond_reach_m2
         parts = [f"{self.untouched_where()})" if left > 0 else f"estimated coverage {self.coverage:.2f}"]
-        if self.unexplained_m() > 0:
-            parts.append(f"{self.unexplained_m() * 1e3:.0f} mm of the frontier left unexplained")
+        unexplained = self.unexplained_m()
+        if unexplained > 0:
+            parts.append(f"{unexplained * 1e3:.0f} mm of the frontier left unexplained")
         return "the scan so far: " + ", ".join(parts)
 
     def unexplained_m(self) -> float:
