@@ -18,9 +18,10 @@ DOWN = Rotation.from_euler("x", 180, degrees=True)
 DT = 1.0 / 250.0
 
 
-def fly(h, touching, max_ticks=6000):
+def fly(h, touching, max_ticks=6000, reach=None):
     """Tick, moving the pad by the commanded twist (sensor frame); in contact with 2 kPa where
-    ``touching(pose)``. The status and the pose at the end."""
+    ``touching(pose)``; ``reach(position)``, when given, is where the arm stops a position it
+    cannot get to. The status and the pose at the end."""
     T = np.asarray(py_trees.blackboard.Blackboard.storage["/tactile/pose"], dtype=float).copy()
     status = Status.RUNNING
     for _ in range(max_ticks):
@@ -33,6 +34,8 @@ def fly(h, touching, max_ticks=6000):
         T = T.copy()
         T[:3, 3] += R @ twist[:3] * DT
         T[:3, :3] = Rotation.from_rotvec(R @ twist[3:] * DT).as_matrix() @ R
+        if reach is not None:
+            T[:3, 3] = reach(T[:3, 3])
         h.set_pose(T)
     return status, T
 
@@ -117,3 +120,23 @@ def test_a_touch_that_found_nothing_is_followed_by_a_return_to_the_last_contact(
     assert status == Status.SUCCESS and job["result"] == "surface"
     npt.assert_allclose(T[:3, 2], -normal, atol=math.radians(3))  # facing the face again
     assert np.linalg.norm(T[:3, 3] - last) < 0.005
+
+
+@pytest.mark.parametrize("short_m, result", [(0.005, "surface"), (0.015, "reach")])
+def test_a_move_over_the_arm_cannot_finish_goes_on_down_from_near_enough(short_m, result):
+    """High up, the arm stops the pad ``short_m`` before the point it moves over to (a point
+    near its base is out of reach there, not lower down): within 10 mm across, clear of
+    everything touched, the pad goes on down and lands; farther off, the arm's reach ends it."""
+    probe, normal = np.array([0.06, 0.02, 0.03]), np.array([0.0, 0.0, 1.0])
+    start = make_pose(DOWN, np.array([0.0, 0.02, 0.065]))
+    job = {"probe": (probe, normal), "top_z": 0.04, "home": (start[:3, 3], normal)}
+    h = LeafHarness(Reapproach(), dt=DT, pose=start)
+    h.set("/scan/reapproach", job)
+
+    def reach(p):  # above 55 mm, the arm gets no farther than short_m before x = 60 mm
+        return np.array([min(p[0], probe[0] - short_m), p[1], p[2]]) if p[2] > 0.055 else p
+
+    status, T = fly(h, lambda T: T[2, 3] <= probe[2] + 1e-4, reach=reach)
+    assert status == Status.SUCCESS and job["result"] == result
+    if result == "surface":
+        assert np.linalg.norm(T[:3, 3] - probe) < 0.003

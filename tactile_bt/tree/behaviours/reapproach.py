@@ -64,6 +64,11 @@ _K_TURN = 3.0
 #: this long (s) is out of the arm's reach: its joints are at their limits.
 STUCK_S = 1.0
 _M_PER_RAD = 0.03
+#: A move over everything touched that the arm cannot finish at its height (a point near the
+#: arm's base, high up, is out of its reach where lower down it is not) goes on down from where
+#: it stopped when that lies within this distance (m) across of the point it moves over to,
+#: turned as planned, with the pad's lowest corner clear of everything touched.
+_OVER_NEAR_M = 0.01
 #: A probe point near the table stays this far (m) inside the sensing area.
 _INSIDE_M = 0.01
 #: A re-approach turns the pad a quarter turn about its normal where the wrist would otherwise
@@ -166,6 +171,7 @@ class Reapproach(TactileBehaviour):
         the normal (when in contact), rise to ``clearance_m`` above ``top_z`` (the highest touched point) unless
         its lowest corner is that high already, move over, turning, and lower."""
         T = self.pose
+        self._top_z = top_z
         half_diagonal = self.pad.half_diagonal_m + self.corner_margin_m
         # lift off a contact; a pad in the air (a move cut short at the arm's reach) rises at once
         lifted = T[:3, 3] + self._lift_direction() * self.lift_m if self.features.in_contact else T[:3, 3].copy()
@@ -291,12 +297,24 @@ class Reapproach(TactileBehaviour):
         if touching and phase != "lifting off":
             self._note_touch()
             self._finish(touched)
-        elif self._move(position, R):
+        elif self._move(position, R) or (self._out_of_reach() and self._over_near(position, R, phase)):
             self._waypoints.pop(0)
             self._deadline = self.now + self.move_s
             self._progress = (math.inf, self.now)
         elif self._out_of_reach():
             self._finish("reach")
+
+    def _over_near(self, position: np.ndarray, R: np.ndarray, phase: str) -> bool:
+        """Whether a move over that the arm cannot finish may go on down from where it stopped:
+        within ``_OVER_NEAR_M`` across of ``position``, turned to ``R`` and clear of everything
+        touched (see :data:`_OVER_NEAR_M`)."""
+        if phase != "moving over" or len(self._waypoints) < 2:
+            return False
+        T = self.pose
+        across = float(np.linalg.norm(position[:2] - T[:2, 3]))
+        turned = float(np.linalg.norm(Rotation.from_matrix(R @ T[:3, :3].T).as_rotvec())) < _AT_RAD
+        corner = lowest_corner(T, self.pad, self.corner_margin_m)[2]
+        return across <= _OVER_NEAR_M and turned and corner >= self._top_z + self.clearance_m
 
     def _out_of_reach(self) -> bool:
         """Whether the current move has run out of time or come no nearer for ``STUCK_S``."""
