@@ -27,7 +27,12 @@ import math
 
 import numpy as np
 
-__all__ = ["SweepPlan", "foot_runs", "valley_sides"]
+__all__ = ["SweepPlan", "foot_runs", "valley_sides", "END_INSIDE_M"]
+
+#: A sweep along a run starts and ends with the middle of the pad's border this far (m) inside
+#: the run's ends (or at its middle, on a run shorter than the border): the border passes over
+#: the run's ends and beyond.
+END_INSIDE_M = 0.01
 
 #: Cells whose outward directions differ by at most this much (rad) belong to one face.
 _SAME_FACE_RAD = math.radians(10.0)
@@ -176,13 +181,21 @@ def _sides_along(m, touched: np.ndarray, xy: np.ndarray, mid: np.ndarray, along:
 
 
 class SweepPlan:
-    """The border sweeps of one map: the runs of foot and the valley sides swept so far (one
-    whose middle lies within ``radius_m`` of a swept one's and faces the same way is not swept
-    again)."""
+    """The border sweeps of one map, so that each is made once.
 
-    def __init__(self, radius_m: float = 0.03, most: int = 12) -> None:
+    A valley's side whose middle lies within ``radius_m`` of a swept one's, facing the same
+    way, is not swept again. A run of foot is not swept again where an earlier sweep of the
+    same face's foot (facing the same way, on the same line) covered it: the run itself and
+    ``reach_m`` beyond each of its ends, which the pad's border passes over; a run of the same
+    face that reaches more than ``new_m`` beyond that (the frontier left along a foot grows as
+    the scan goes on) is swept. ``most`` sweeps at most.
+    """
+
+    def __init__(self, radius_m: float = 0.03, most: int = 12, reach_m: float = 0.0, new_m: float = 0.005) -> None:
         self.radius_m = float(radius_m)
         self.most = int(most)
+        self.reach_m = float(reach_m)
+        self.new_m = float(new_m)
         self.swept: list[dict] = []
 
     def choose(self, candidates: list[dict], from_xy: np.ndarray) -> dict | None:
@@ -190,11 +203,22 @@ class SweepPlan:
         (world, m) not swept before; None when none is left or ``most`` have been swept."""
         if len(self.swept) >= self.most:
             return None
-        fresh = [r for r in candidates if not any(
-            np.linalg.norm(r["centre"] - d["centre"]) <= self.radius_m and r["out"] @ d["out"] >= math.cos(_SAME_FACE_RAD)
-            for d in self.swept)]
+        fresh = [r for r in candidates if not any(self._covers(d, r) for d in self.swept)]
         if not fresh:
             return None
         run = min(fresh, key=lambda r: float(np.linalg.norm(r["centre"] - np.asarray(from_xy)[:2])))
         self.swept.append(run)
         return run
+
+    def _covers(self, done: dict, run: dict) -> bool:
+        """Whether the sweep ``done`` covered the candidate ``run`` (see the class docstring)."""
+        if run["out"] @ done["out"] < math.cos(_SAME_FACE_RAD) or run.get("kind") != done.get("kind"):
+            return False
+        if run.get("kind") != "foot":
+            return bool(np.linalg.norm(run["centre"] - done["centre"]) <= self.radius_m)
+        start = np.asarray(run["start"]) - np.asarray(done["start"])
+        if abs(float(start @ done["out"])) > _SAME_LINE_M:
+            return False
+        ends = float(start @ done["along"]) + np.array([0.0, 1.0]) * run["length_m"] * float(run["along"] @ done["along"])
+        margin = self.reach_m + self.new_m
+        return bool(ends.min() >= -margin and ends.max() <= done["length_m"] + margin)

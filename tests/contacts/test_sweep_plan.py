@@ -80,3 +80,22 @@ def test_the_plan_sweeps_the_nearest_run_once_and_at_most_its_count():
     npt.assert_allclose(second["out"], [1.0, 0.0], atol=0.02)
     assert plan.choose(runs, from_xy=np.zeros(2)) is None
     assert SweepPlan(most=0).choose(runs, from_xy=np.zeros(2)) is None
+
+
+def test_a_longer_run_of_a_swept_foot_is_swept_again_and_one_the_border_covered_is_not():
+    """The frontier left along a foot grows as the scan goes on: a run of the same face that
+    reaches beyond what an earlier sweep covered (the run and the border's overhang beyond its
+    ends) is swept; one within it is not. Another face's foot is a run of its own."""
+    rng = np.random.default_rng(4)
+    xy, z, n, out, along, s = face_cells(rng, 30)
+    middle = np.abs(s) < 0.02
+    plan = SweepPlan(most=5, reach_m=0.01)
+    (first,) = foot_runs(xy[middle], z[middle], n[middle], 0.002)
+    assert plan.choose([first], from_xy=np.zeros(2)) is first
+    within = np.abs(s) < 0.028  # 8 mm more each way: under the border's 10 mm overhang
+    assert plan.choose(foot_runs(xy[within], z[within], n[within], 0.002), from_xy=np.zeros(2)) is None
+    (longer,) = foot_runs(xy, z, n, 0.002)  # the whole 100 mm
+    assert plan.choose([longer], from_xy=np.zeros(2)) is longer
+    assert plan.choose([longer], from_xy=np.zeros(2)) is None  # swept now
+    other = foot_runs(*face_cells(rng, 210)[:3], 0.002)
+    assert plan.choose(other, from_xy=np.zeros(2)) is other[0]

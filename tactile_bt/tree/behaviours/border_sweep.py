@@ -51,6 +51,7 @@ from scipy.spatial.transform import Rotation
 
 from py_trees.common import Status
 
+from tactile_bt.contacts.sweep_plan import END_INSIDE_M
 from tactile_bt.tree.behaviours.contact_points import imprint_points
 from tactile_bt.tree.behaviours.reapproach import HOLD_GAIN, Reapproach
 from tactile_bt.tree.blackboard import TIME, read, read_or
@@ -59,8 +60,6 @@ from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE
 
 __all__ = ["BorderSweep", "level_facing", "foot_passes"]
 
-#: The pad starts sweeping this far (m) inside the run's ends, so that its border row covers them.
-_END_INSIDE_M = 0.01
 #: Each pass holds still until it has touched this long (s), for the pressure to settle, before it
 #: sweeps, and does not end before.
 _SETTLE_S = 0.5
@@ -159,8 +158,8 @@ class BorderSweep(Reapproach):
         self._normal = np.asarray(run["normal"], dtype=float)
         reach = self.pad.half_width_m  # from the pad centre to the border row's edge
         length = float(run["length_m"])
-        self._first = min(reach - _END_INSIDE_M, length / 2)
-        self._s_end = max(length - (reach - _END_INSIDE_M), length / 2)
+        self._first = min(reach - END_INSIDE_M, length / 2)
+        self._s_end = max(length - (reach - END_INSIDE_M), length / 2)
         border = np.asarray(run["start"], dtype=float) + along * self._first  # world xy of the border's middle
         level = level_facing(-out, self.pose[:3, :3])
         top_z = float(self._job.get("top_z", 0.0))
@@ -198,7 +197,7 @@ class BorderSweep(Reapproach):
         along = self._first + float((T[:3, 3] - foot) @ self._along)
         n = self._normal
         on_face = abs(float((T[:3, 3] - foot) @ n)) < _ON_FACE_M
-        if into <= 0 or not on_face or not -_END_INSIDE_M <= along <= length + _END_INSIDE_M:
+        if into <= 0 or not on_face or not -END_INSIDE_M <= along <= length + END_INSIDE_M:
             return  # not on this face: the way over everything touched
         slope = math.hypot(n[0], n[1]) / max(n[2], 1e-6)  # the face's rise per m inwards
         border = into + self.pad.half_width_m  # the level pad's inner border, inside the foot (m)

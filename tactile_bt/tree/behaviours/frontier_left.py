@@ -31,7 +31,7 @@ from scipy import ndimage
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST, parts_touching
 from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points
-from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, valley_sides
+from tactile_bt.contacts.sweep_plan import END_INSIDE_M, SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
 from tactile_bt.tree.blackboard import read_or, write
 from tactile_bt.tree.declaration import Parameter
@@ -289,7 +289,8 @@ class FrontierLeft:
         if not self.reapproach_key or not self.max_sweeps or self.map is None:
             return None
         if self.sweeps is None:
-            self.sweeps = SweepPlan(most=self.max_sweeps)
+            # a foot's sweep covers its run and the border's overhang beyond each end
+            self.sweeps = SweepPlan(most=self.max_sweeps, reach_m=END_INSIDE_M)
         foot_z = self.table_z_m + self.foot_height_m
         run = None
         if self.below_m2 > 0 and math.isfinite(foot_z):
