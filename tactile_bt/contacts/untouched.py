@@ -127,8 +127,10 @@ def _walked_untouched(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: n
     cols)`` along ``out``: from each cell's highest sample, ``run`` (m) far in the table
     plane, descending at ``tilt + curvature · s`` (rad, rad/m) after ``s`` (m), above
     ``table_z_m``, in steps of a quarter of ``radius_m``; a step counts as left where no
-    contact sample (``samples``, ``(k, 3)``, world, m) lies within ``radius_m`` of it, each a
-    strip a cell wide, counted once however many walks pass it."""
+    contact sample (``samples``, ``(k, 3)``, world, m) lies within ``radius_m`` of it, nor
+    beneath it within ``radius_m`` across (where the surface turns steeper than the walk, a
+    rounded side steepening towards the table, it lies below the walk, and was touched there),
+    each a strip a cell wide, counted once however many walks pass it."""
     if not len(rows) or not np.any(run > 0):
         return 0.0
     top = m.z_max[rows, cols]
@@ -149,5 +151,11 @@ def _walked_untouched(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: n
     if len(near):
         distance, _ = cKDTree(near).query(points, distance_upper_bound=1.01 * radius_m)
         points = points[distance > radius_m]
+    if len(near) and len(points):  # a surface steeper than the walk lies beneath it: touched there?
+        pairs = cKDTree(points[:, :2]).sparse_distance_matrix(cKDTree(near[:, :2]), radius_m, output_type="ndarray")
+        lower = near[pairs["j"], 2] <= points[pairs["i"], 2] + radius_m
+        beneath = np.zeros(len(points), dtype=bool)
+        beneath[pairs["i"][lower]] = True
+        points = points[~beneath]
     keys = np.unique(np.floor(points[:, :2] / step).astype(np.int64), axis=0)
     return float(len(keys)) * step * m.cell_m

@@ -163,6 +163,25 @@ def test_a_strip_of_contacts_near_the_foot_covers_the_band_around_it():
     assert before - after > 0.04 * 0.003
 
 
+def test_a_side_touched_beneath_the_walk_where_it_turns_steeper_counts_as_touched():
+    # the 30° face touched from z = 10 mm up; below the frontier the side turns to 60° and was
+    # touched there (a border sweep): it meets the table 5.8 mm out, where a walk on down at 30°
+    # is still 6.7 mm above it, and the walk's steps over that touched side count as touched
+    slope, steep = math.radians(30), math.radians(60)
+    points, normals = _side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope)))
+    m, rows, cols, out = _left_near_table(points, normals)
+    before = _below(m, rows, cols, out)
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-0.01 / math.tan(steep), 0.0, 4000)
+    side = np.column_stack((x, rng.uniform(-0.02, 0.02, 4000), 0.01 + x * math.tan(steep)))
+    m.samples = np.vstack((points, side))
+    after = _below(m, rows, cols, out)
+    # 17.3 mm of run: 1.7 mm below the frontier covered, and now the 5.8 mm over the steeper side
+    # and the coverage radius beyond it
+    npt.assert_allclose(before, 0.04 * (0.01 / math.tan(slope) - 0.0017), rtol=0.25)
+    npt.assert_allclose(after, 0.04 * (0.01 / math.tan(slope) - 0.01 / math.tan(steep) - 0.002), rtol=0.25)
+
+
 def test_a_level_top_far_above_the_table_leaves_nothing_counted_below_it():
     # a box's top, 40 mm above the table: a pad lying on it never meets the table; where the table
     # stopped it, the pad had rolled over an edge onto a side steeper than anything touched
