@@ -62,8 +62,8 @@ def untouched_below(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.
     """Estimated area (m², in the table plane) of the surface left between the frontier
     cells ``(rows, cols)`` (outward directions ``out``) and the table at ``table_z_m``, where
     a plane face goes on down to it (:func:`face_going_on`, or ``face``, its result for these
-    cells when the caller has it already): the face is walked outwards of each such cell from
-    its highest sample down to the table at the face's tilt, in steps of a quarter of
+    cells when the caller has it already): the face is walked from each such cell's highest
+    sample down its slope to the table, at the face's tilt, in steps of a quarter of
     ``radius_m``, and a step counts as left where no contact sample (``samples``, ``(k, 3)``,
     world, m) lies within ``radius_m`` of it (the scan figures' coverage radius); each step
     stands for a strip a cell wide, and a step another cell's walk has counted already is
@@ -73,6 +73,12 @@ def untouched_below(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: np.
     if not np.any(face):
         return 0.0
     rows, cols, out = rows[face], cols[face], np.asarray(out, dtype=float)[face]
+    # walked down the face's own slope (its normal's direction in the table plane), not along the
+    # frontier's outward direction, which turns cell by cell where the foot runs across the grid
+    downhill = m.mean_normal(rows, cols)[:, :2]
+    length = np.linalg.norm(downhill, axis=1)
+    sloping = length > 1e-9
+    out[sloping] = downhill[sloping] / length[sloping, None]
     tilt = np.maximum(m.tilt(rows, cols), math.radians(1.0))
     run = np.maximum(m.z_max[rows, cols] - table_z_m, 0.0) / np.tan(tilt)
     return _walked_untouched(m, rows, cols, out, run, tilt, np.zeros(len(rows)), samples, radius_m)
@@ -142,6 +148,7 @@ def _walked_untouched(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: n
     walk = (steps[None, :] <= run[:, None]) & (z >= table_z_m)
     xy = m.centre_of(rows, cols)[:, None, :] + out[:, None, :] * steps[None, :, None]
     points = np.concatenate((xy, z[..., None]), axis=-1)[walk]
+    across = np.broadcast_to(np.column_stack((-out[:, 1], out[:, 0]))[:, None, :], xy.shape)[walk]
     if not len(points):
         return 0.0
     samples = np.asarray(samples, dtype=float).reshape(-1, 3)
@@ -150,12 +157,15 @@ def _walked_untouched(m: FrontierMap, rows: np.ndarray, cols: np.ndarray, out: n
                    & np.all(samples[:, :2] <= points[:, :2].max(axis=0) + radius_m, axis=1)]
     if len(near):
         distance, _ = cKDTree(near).query(points, distance_upper_bound=1.01 * radius_m)
-        points = points[distance > radius_m]
+        left = distance > radius_m
+        points, across = points[left], across[left]
     if len(near) and len(points):  # a surface steeper than the walk lies beneath it: touched there?
         pairs = cKDTree(points[:, :2]).sparse_distance_matrix(cKDTree(near[:, :2]), radius_m, output_type="ndarray")
         lower = near[pairs["j"], 2] <= points[pairs["i"], 2] + radius_m
         beneath = np.zeros(len(points), dtype=bool)
         beneath[pairs["i"][lower]] = True
-        points = points[~beneath]
-    keys = np.unique(np.floor(points[:, :2] / step).astype(np.int64), axis=0)
-    return float(len(keys)) * step * m.cell_m
+        points, across = points[~beneath], across[~beneath]
+    offsets = (np.arange(round(m.cell_m / step)) + 0.5) * step - 0.5 * m.cell_m
+    strips = points[:, None, :2] + offsets[None, :, None] * across[:, None, :]
+    keys = np.unique(np.floor(strips.reshape(-1, 2) / step).astype(np.int64), axis=0)
+    return float(len(keys)) * step * step

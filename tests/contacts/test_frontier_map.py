@@ -148,6 +148,25 @@ def test_a_plane_face_going_on_to_the_table_leaves_the_run_down_to_it_untouched(
     assert _below(m, rows, cols, out, reach_m=0.01) == 0.0
 
 
+@pytest.mark.parametrize("yaw_deg", [0, 20, 30, 45])
+def test_the_band_below_a_face_is_the_same_whichever_way_the_face_is_turned(yaw_deg):
+    # the 30° face of the test above, 40 mm of it, turned about z: its frontier cells lie closer
+    # than a cell apart and point every which way where its foot runs across the grid; the band
+    # is 40 mm × (17.3 mm less the 1.7 mm the frontier's samples cover) all the same
+    slope, yaw = math.radians(30), math.radians(yaw_deg)
+    points, normals = _side(lambda x: (0.01 + x * math.tan(slope), np.full_like(x, slope)), n=20000)
+    turn = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    points, normals = points @ turn.T, normals @ turn.T
+    m = FrontierMap((0.02 * math.cos(yaw), 0.02 * math.sin(yaw)), cell_m=0.002, extent_m=0.1)
+    m.add(points, normals)
+    m.samples = points
+    rows, cols, out = m.frontier()
+    c = m.centre_of(rows, cols)
+    low = (c @ turn[:2, 0] < 0.003) & (np.abs(c @ turn[:2, 1]) < 0.02)
+    area = _below(m, rows[low], cols[low], out[low])
+    npt.assert_allclose(area, 0.04 * (0.01 / math.tan(slope) - 0.002 * math.cos(slope)), rtol=0.1)
+
+
 def test_a_strip_of_contacts_near_the_foot_covers_the_band_around_it():
     # the 30° face touched from z = 10 mm up, and a border's strip of contacts at z = 2 mm
     slope = math.radians(30)
