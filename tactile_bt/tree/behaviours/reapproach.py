@@ -297,12 +297,19 @@ class Reapproach(TactileBehaviour):
         if touching and phase != "lifting off":
             self._note_touch()
             self._finish(touched)
-        elif self._move(position, R) or (self._out_of_reach() and self._over_near(position, R, phase)):
-            self._waypoints.pop(0)
-            self._deadline = self.now + self.move_s
-            self._progress = (math.inf, self.now)
+        elif self._move(position, R):
+            self._next_move()
         elif self._out_of_reach():
-            self._finish("reach")
+            if self._over_near(position, R, phase):  # on down from here, where the arm reaches
+                self._next_move()
+            else:
+                self._finish("reach")
+
+    def _next_move(self) -> None:
+        """Drop the waypoint reached (or given up as near enough) and time the next move."""
+        self._waypoints.pop(0)
+        self._deadline = self.now + self.move_s
+        self._progress = (math.inf, self.now)
 
     def _over_near(self, position: np.ndarray, R: np.ndarray, phase: str) -> bool:
         """Whether a move over that the arm cannot finish may go on down from where it stopped:
