@@ -64,9 +64,24 @@ OBJECTS = {
     "pyramid_steep": ("square pyramid, 100 mm base, faces at 45°, 1e5 N/m, turned 30°", 0.05, 60,
                       "  - {type: pyramid, base: 0.10, slope_deg: 45, position: [0, 0, 0], rpy_deg: [0, 0, 30], "
                       "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "pyramid_wide": ("square pyramid, 140 mm base, faces at 30°, 1.5e5 N/m, turned 40°",
+                     0.07 * math.tan(math.radians(30)), 60,
+                     "  - {type: pyramid, base: 0.14, slope_deg: 30, position: [0, 0, 0], rpy_deg: [0, 0, 40], "
+                     "stiffness: 1.5e5, friction: 0.5}\n", 0.0),
+    "pyramid_shallow": ("square pyramid, 130 mm base, faces at 25°, 2e5 N/m, turned 5°",
+                        0.065 * math.tan(math.radians(25)), 60,
+                        "  - {type: pyramid, base: 0.13, slope_deg: 25, position: [0, 0, 0], rpy_deg: [0, 0, 5], "
+                        "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
+    "pyramid_40": ("square pyramid, 100 mm base, faces at 40°, 1e5 N/m, turned −20°",
+                   0.05 * math.tan(math.radians(40)), 60,
+                   "  - {type: pyramid, base: 0.10, slope_deg: 40, position: [0, 0, 0], rpy_deg: [0, 0, -20], "
+                   "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
     "groove_shallow": ("block 150 × 170 × 35 mm with a groove 115 mm wide and 6 mm deep, 1e5 N/m, turned −45°", 0.035,
                        60, "  - {type: grooved_block, size: [0.15, 0.17, 0.035], groove_width: 0.115, groove_depth: 0.006, "
                            "position: [0, 0, 0.0175], rpy_deg: [0, 0, -45], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "groove_mid": ("block 150 × 150 × 35 mm with a groove 100 mm wide and 7 mm deep, 1e5 N/m, turned 35°", 0.035,
+                   60, "  - {type: grooved_block, size: [0.15, 0.15, 0.035], groove_width: 0.10, groove_depth: 0.007, "
+                       "position: [0, 0, 0.0175], rpy_deg: [0, 0, 35], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
     "cylinder_turned": ("cylinder 70 mm across, 150 mm long, 5e4 N/m, turned 35°", 0.07, 60,
                         "  - {type: cylinder, radius: 0.035, length: 0.15, position: [0, 0, 0.035], rpy_deg: [0, 0, 35], "
                         "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
@@ -83,7 +98,7 @@ OBJECTS = {
 #: The lumpy meshes: semi-axes (m) and seed of make_scan_stone.py's recipe.
 MESHES = {"lumpy_soft": ((0.054, 0.036, 0.028), 11), "lumpy_big": ((0.075, 0.05, 0.062), 3)}
 #: A scene with a goal of its own, as docs/exploration_scenes.py has for the shipped groove.
-COVERAGE_OF = {"unseen_groove_narrow": 0.90, "unseen_groove_shallow": 0.90}
+COVERAGE_OF = {"unseen_groove_narrow": 0.90, "unseen_groove_shallow": 0.90, "unseen_groove_mid": 0.90}
 
 
 def _make_mesh(name: str, folder: Path) -> float:
