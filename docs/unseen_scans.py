@@ -39,6 +39,29 @@ def _torus(major_m: float, minor_m: float, hole: str) -> tuple:
             "stiffness: 1.0e5, friction: 0.5}\n", -major_m)
 
 
+def _pyramid(base_m: float, slope_deg: float, yaw_deg: int, stiffness: float) -> tuple:
+    """The entry of a square pyramid standing on the table, ``base_m`` across, its faces
+    ``slope_deg`` steep, turned ``yaw_deg`` about the vertical, ``stiffness`` (N/m)."""
+    turned = f"{yaw_deg}".replace("-", "\N{MINUS SIGN}")
+    k = stiffness / 1e5
+    return (f"square pyramid, {round(1e3 * base_m)} mm base, faces at {slope_deg:g}°, {k:g}e5 N/m, turned {turned}°",
+            0.5 * base_m * math.tan(math.radians(slope_deg)), 60,
+            f"  - {{type: pyramid, base: {base_m:.2f}, slope_deg: {slope_deg:g}, position: [0, 0, 0], "
+            f"rpy_deg: [0, 0, {yaw_deg}], stiffness: {k:.1f}e5, friction: 0.5}}\n", 0.0)
+
+
+def _grooved_block(size_m: tuple, groove_m: float, depth_m: float, yaw_deg: int) -> tuple:
+    """The entry of a block ``size_m`` (x, y, z) standing on the table (1e5 N/m), a groove
+    ``groove_m`` wide and ``depth_m`` deep along its top, turned ``yaw_deg`` about the vertical."""
+    mm = " × ".join(str(round(1e3 * v)) for v in size_m)
+    turned = f"{yaw_deg}".replace("-", "\N{MINUS SIGN}")
+    return (f"block {mm} mm with a groove {round(1e3 * groove_m)} mm wide and {round(1e3 * depth_m)} mm deep, 1e5 N/m, "
+            f"turned {turned}°", size_m[2], 60,
+            f"  - {{type: grooved_block, size: [{', '.join(f'{v:g}' for v in size_m)}], groove_width: {groove_m:g}, "
+            f"groove_depth: {depth_m:g}, position: [0, 0, {size_m[2] / 2:g}], rpy_deg: [0, 0, {yaw_deg}], "
+            "stiffness: 1.0e5, friction: 0.5}\n", 0.0)
+
+
 #: name -> (description, top height (m), region's largest angle (deg), objects YAML, pad start x (m)).
 #: A lumpy mesh's top is known only once it is made: its entry gives the mesh's name instead.
 OBJECTS = {
@@ -48,40 +71,20 @@ OBJECTS = {
     "capsule_thin": ("capsule 50 mm across, 170 mm long, 5e4 N/m, turned −40°", 0.05, 60,
                      "  - {type: capsule, radius: 0.025, length: 0.12, position: [0, 0, 0.025], rpy_deg: [0, 0, -40], "
                      "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
-    "groove_narrow": ("block 140 × 160 × 40 mm with a groove 90 mm wide and 8 mm deep, 1e5 N/m, turned 20°", 0.04, 60,
-                      "  - {type: grooved_block, size: [0.14, 0.16, 0.04], groove_width: 0.09, groove_depth: 0.008, "
-                      "position: [0, 0, 0.02], rpy_deg: [0, 0, 20], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    "pyramid_small": ("square pyramid, 120 mm base, faces at 35°, 2e5 N/m, turned 10°",
-                      0.06 * math.tan(math.radians(35)), 60,
-                      "  - {type: pyramid, base: 0.12, slope_deg: 35, position: [0, 0, 0], rpy_deg: [0, 0, 10], "
-                      "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
+    "groove_narrow": _grooved_block((0.14, 0.16, 0.04), 0.09, 0.008, 20),
+    "pyramid_small": _pyramid(0.12, 35, 10, 2.0e5),
     "torus_wide": _torus(0.08, 0.03, "wider than the pad"),
     "torus_narrow": _torus(0.05, 0.03, "half the pad"),
     "torus_mid": _torus(0.07, 0.022, "between the pad's width and diagonal"),
     "torus_60": _torus(0.055, 0.025, "three quarters of the pad"),
     "torus_64": _torus(0.057, 0.025, "four fifths of the pad"),
     "torus_54": _torus(0.052, 0.025, "two thirds of the pad"),
-    "pyramid_steep": ("square pyramid, 100 mm base, faces at 45°, 1e5 N/m, turned 30°", 0.05, 60,
-                      "  - {type: pyramid, base: 0.10, slope_deg: 45, position: [0, 0, 0], rpy_deg: [0, 0, 30], "
-                      "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    "pyramid_wide": ("square pyramid, 140 mm base, faces at 30°, 1.5e5 N/m, turned 40°",
-                     0.07 * math.tan(math.radians(30)), 60,
-                     "  - {type: pyramid, base: 0.14, slope_deg: 30, position: [0, 0, 0], rpy_deg: [0, 0, 40], "
-                     "stiffness: 1.5e5, friction: 0.5}\n", 0.0),
-    "pyramid_shallow": ("square pyramid, 130 mm base, faces at 25°, 2e5 N/m, turned 5°",
-                        0.065 * math.tan(math.radians(25)), 60,
-                        "  - {type: pyramid, base: 0.13, slope_deg: 25, position: [0, 0, 0], rpy_deg: [0, 0, 5], "
-                        "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
-    "pyramid_40": ("square pyramid, 100 mm base, faces at 40°, 1e5 N/m, turned −20°",
-                   0.05 * math.tan(math.radians(40)), 60,
-                   "  - {type: pyramid, base: 0.10, slope_deg: 40, position: [0, 0, 0], rpy_deg: [0, 0, -20], "
-                   "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    "groove_shallow": ("block 150 × 170 × 35 mm with a groove 115 mm wide and 6 mm deep, 1e5 N/m, turned −45°", 0.035,
-                       60, "  - {type: grooved_block, size: [0.15, 0.17, 0.035], groove_width: 0.115, groove_depth: 0.006, "
-                           "position: [0, 0, 0.0175], rpy_deg: [0, 0, -45], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    "groove_mid": ("block 150 × 150 × 35 mm with a groove 100 mm wide and 7 mm deep, 1e5 N/m, turned 35°", 0.035,
-                   60, "  - {type: grooved_block, size: [0.15, 0.15, 0.035], groove_width: 0.10, groove_depth: 0.007, "
-                       "position: [0, 0, 0.0175], rpy_deg: [0, 0, 35], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "pyramid_steep": _pyramid(0.10, 45, 30, 1.0e5),
+    "pyramid_wide": _pyramid(0.14, 30, 40, 1.5e5),
+    "pyramid_shallow": _pyramid(0.13, 25, 5, 2.0e5),
+    "pyramid_40": _pyramid(0.10, 40, -20, 1.0e5),
+    "groove_shallow": _grooved_block((0.15, 0.17, 0.035), 0.115, 0.006, -45),
+    "groove_mid": _grooved_block((0.15, 0.15, 0.035), 0.10, 0.007, 35),
     "cylinder_turned": ("cylinder 70 mm across, 150 mm long, 5e4 N/m, turned 35°", 0.07, 60,
                         "  - {type: cylinder, radius: 0.035, length: 0.15, position: [0, 0, 0.035], rpy_deg: [0, 0, 35], "
                         "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
