@@ -474,6 +474,29 @@ def test_planner_slows_near_the_pad_s_border_but_not_while_the_pad_bridges_a_hol
     assert speeds[1] == pytest.approx(0.02, rel=1e-6)
 
 
+def test_planner_marks_the_strip_a_pad_resting_on_two_rims_bridges_as_a_hollow():
+    # with bridge_watch_s: two rims under opposite borders, the lesser carrying a third of the
+    # load, for 2 s: the map marks the strip between them as a hollow, so that an untouched channel
+    # there may count as a valley the flat pad bridges; one rim alone, or the watch off (the
+    # default), marks nothing
+    from tactile_bt.perception.synthetic import line_contact
+
+    rim = line_contact((0.0, 7.5), math.pi / 2, 12.0, 0.8, 2.0)
+    other = line_contact((15.0, 7.5), math.pi / 2, 12.0, 0.8, 1.0)
+    marked = {}
+    for case, frame, watch in (("two rims", rim + other, 1.5), ("one rim", rim, 1.5), ("watch off", rim + other, 0.0)):
+        leaf, h = planner_harness(disc(0.06), (0.0, 0.0), speed_mps=0.02, bridge_watch_s=watch)
+        for _ in range(round(2.0 / h.dt)):
+            h.tick(frame=frame)
+        marked[case] = leaf.map.hollow.copy()
+        if case == "two rims":
+            middle = leaf.map.cell_of(np.zeros((1, 2)))[0]  # the pad's centre, between the rims
+            assert marked[case][middle[0], middle[1]]
+            xy = leaf.map.centre_of(*np.nonzero(marked[case]))
+            assert np.all(np.abs(xy) <= 0.04 + 1e-9)  # nothing beyond the rims
+    assert not marked["one rim"].any() and not marked["watch off"].any()
+
+
 def test_planner_succeeds_when_no_frontier_is_within_the_tilt_limit():
     tilt = math.radians(68)
     steep = (math.sin(tilt), 0.0, math.cos(tilt))  # every touched cell is tilted 68°

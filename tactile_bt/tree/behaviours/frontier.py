@@ -81,9 +81,6 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
-#: A pad resting on two contacts at least half its width apart, the lesser carrying at least this
-#: share of the load, bridges a hollow: the border distance is taken from the centre of the whole load.
-_BRIDGE_SHARE = 0.25
 #: A band the table left at the foot of plane faces larger than this share of the touched area is
 #: swept (when sweeps are on) even when the scan could end without it.
 _BAND_WORTH = 0.01
@@ -235,9 +232,8 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         """Write the guidance along the world direction ``world`` (zero when None), slower as
         the contact nears the pad's border: sliding drags the contact towards the trailing
         side, and off the pad when it sits near the border already (see ``table_offset``). A
-        pad bridging a hollow (another region at least half the pad's width away carrying
-        ``_BRIDGE_SHARE`` of the load or more) rests on both: the border distance is then that
-        of the centre of the whole load."""
+        pad bridging a hollow (:meth:`_resting_on_two`) rests on both: the border distance is
+        then that of the centre of the whole load."""
         norm = 0.0 if world is None else float(np.linalg.norm(world))
         if norm < 1e-12:
             write(self.key, _ZERO_TWIST)
@@ -246,11 +242,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         f = self.features_raw
         if f.in_contact:
             w, h = self.pad.size_m
-            x, y = f.cop_xy
-            if f.others_tactels > 0 and f.others_force >= _BRIDGE_SHARE * (f.force + f.others_force):
-                ox, oy = f.pad.xy_px_to_m(*f.others_cop_px)
-                if math.hypot(ox - x, oy - y) >= 0.5 * min(w, h):  # resting on both sides of a hollow
-                    x, y = f.load_cop_xy
+            x, y = f.load_cop_xy if self._resting_on_two() is not None else f.cop_xy
             margin = min(0.5 * w - abs(x), 0.5 * h - abs(y))
             speed *= min(1.0, max(_SLOWEST, (margin - _BORDER_STOP_M) / (_BORDER_SLOW_M - _BORDER_STOP_M)))
         write(self.key, tangent_guidance(self.pose, world / norm, speed))
@@ -266,6 +258,8 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         self._held: tuple = ((), -math.inf)  # the joints last held at a limit, and when
         self._start_tilt_cos = -2.0
         self._cause = ""
+        self._bridge_since: float | None = None  # since when the pad has rested on both sides of a hollow
+        self._bridge_last = -math.inf
 
     def _choose(self, point: np.ndarray) -> bool:
         """Choose the next target from ``point`` (world), or start backing off from the table
@@ -334,6 +328,8 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         if held:
             self._held = (held, self.now)
         point = self._contact_point()
+        if point is not None:
+            self._watch_bridge()
         if point is None:  # no contact: hold still, the guards decide
             if self.target is not None and self._last_point is not None:
                 self._block(self._last_point, "contact lost", cause="contact lost")  # that way is out of reach from here

@@ -10,7 +10,9 @@ joint alone, and it is the one that turns a square pad about its normal, into
 :data:`~tactile_bt.contacts.frontier_map.WRIST`, the reach of a wrist wound up, which a re-approach
 turning the pad back a quarter turn may undo), and the pad
 *backs off*, uphill and away from the way it went. A recovering ``table_clearance`` guard's alarm
-and an intervention of the supervisor end an attempt the same way, once per alarm.
+and an intervention of the supervisor end an attempt the same way, once per alarm. While the pad
+rests on two contacts across a hollow, the map may be told where it bridged (``bridge_watch_s``),
+whether or not the attempt ends there.
 
 Layer: tree.
 """
@@ -23,6 +25,7 @@ import numpy as np
 from py_trees.common import Access
 
 from tactile_bt.contacts.frontier_map import WRIST
+from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, lowest_corner
 from tactile_bt.tree.blackboard import read_or, turn_room
@@ -37,6 +40,11 @@ _EDGE_CAUSES = frozenset({"shrink", "edge", "turn"})
 #: Half the width (m) of the strip between two contacts the pad bridged that the map marks as a
 #: hollow (the contacts' centres lie mid-way along their lines).
 _BRIDGED_HALF_WIDTH_M = 0.01
+#: A pad resting on two contacts at least half its width apart, the lesser carrying at least this
+#: share of the load, bridges a hollow.
+_BRIDGE_SHARE = 0.25
+#: Breaks (s) in such resting that do not start ``bridge_watch_s`` over (the pad rocks between them).
+_BRIDGE_GAP_S = 0.25
 #: An attempt ends near the table only when the pad's corner has sunk this much (m) since it began.
 _SINKING_M = 0.0005
 #: Ends an arm holding a joint at its limit explains: the pad stopped, or lost the contact,
@@ -62,6 +70,15 @@ class FrontierEnds:
     retreat_m = Parameter(0.005, bound=NON_NEGATIVE,
                           doc="After an attempt has ended the pad backs off, uphill and away from the way it went, at "
                               "least this far (m) and until it is about as level as where the attempt started.")
+    bridge_watch_s = Parameter(0.0, bound=NON_NEGATIVE,
+                               doc="While the pad rests on two contacts at least half its width apart, the lesser "
+                                   "carrying a quarter of the load or more (a flat pad bridging a hollow), the map "
+                                   "marks the strip between them as a hollow every this many seconds (s; 0: never, "
+                                   "the default). The marks let an untouched channel the pad was seen to bridge, "
+                                   "open at its ends, count as a valley, as ``contact_bridged`` does when it ends an "
+                                   "attempt, but without ending it. Off in the shipped tree: on rings the strips "
+                                   "across the hole turn the band along its rim into valleys the estimate counts "
+                                   "(docs/scanning.md, \"Bridging: what the shipped tree leaves out\").")
     alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True,
                           doc="Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a "
                               "recovering ``table_clearance`` guard finds it too close to the table; None or absent "
@@ -78,6 +95,40 @@ class FrontierEnds:
     def _tilt_cos(self) -> float:
         """Cosine of the pad's tilt from the vertical."""
         return -float(self.pose[2, 2])
+
+    # -- bridging ----------------------------------------------------------------------------
+    def _resting_on_two(self) -> tuple | None:
+        """The pad's two contacts (pad xy, m: the largest region's centre of pressure and the
+        other regions') while it rests on both, at least half its width apart, the other regions
+        carrying at least ``_BRIDGE_SHARE`` of the load; None otherwise."""
+        f = self.features_raw
+        if not (f.in_contact and f.others_tactels > 0 and f.others_force >= _BRIDGE_SHARE * (f.force + f.others_force)):
+            return None
+        x, y = f.cop_xy
+        ox, oy = f.pad.xy_px_to_m(*f.others_cop_px)
+        if math.hypot(ox - x, oy - y) < 0.5 * min(self.pad.size_m):
+            return None
+        return (x, y), (ox, oy)
+
+    def _watch_bridge(self) -> None:
+        """Mark the strip between the pad's two contacts as a hollow on the map once the pad has
+        rested on both for ``bridge_watch_s`` (each side carrying ``_BRIDGE_SHARE`` of the load
+        or more), and again every ``bridge_watch_s`` while it goes on."""
+        if not self.bridge_watch_s > 0 or self.map is None:
+            return
+        pair = self._resting_on_two()
+        now = self.now
+        if pair is None or self.features_raw.lesser_share < _BRIDGE_SHARE:
+            if now - self._bridge_last > _BRIDGE_GAP_S:
+                self._bridge_since = None
+            return
+        self._bridge_last = now
+        if self._bridge_since is None:
+            self._bridge_since = now
+        elif now - self._bridge_since >= self.bridge_watch_s:
+            a, b = (pad_point(self.pose, *xy) for xy in pair)
+            self.map.mark_bridged(a, b, half_width_m=_BRIDGED_HALF_WIDTH_M)
+            self._bridge_since = now
 
     # -- ends of attempts --------------------------------------------------------------------
     def _attempt_end(self, point: np.ndarray) -> tuple[str, bool]:
