@@ -242,7 +242,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         f = self.features_raw
         if f.in_contact:
             w, h = self.pad.size_m
-            x, y = f.load_cop_xy if self._resting_on_two() is not None else f.cop_xy
+            x, y = f.load_cop_xy if self._resting_on_two() else f.cop_xy
             margin = min(0.5 * w - abs(x), 0.5 * h - abs(y))
             speed *= min(1.0, max(_SLOWEST, (margin - _BORDER_STOP_M) / (_BORDER_SLOW_M - _BORDER_STOP_M)))
         write(self.key, tangent_guidance(self.pose, world / norm, speed))

@@ -25,8 +25,8 @@ import numpy as np
 from py_trees.common import Access
 
 from tactile_bt.contacts.frontier_map import WRIST
-from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.supervision import REASON, RETREATING
+from tactile_bt.tree.behaviours.surface_end import bridge_ends
 from tactile_bt.tree.behaviours.table import TABLE_ALARM_KEY, lowest_corner
 from tactile_bt.tree.blackboard import read_or, turn_room
 from tactile_bt.tree.declaration import Parameter
@@ -97,18 +97,15 @@ class FrontierEnds:
         return -float(self.pose[2, 2])
 
     # -- bridging ----------------------------------------------------------------------------
-    def _resting_on_two(self) -> tuple | None:
-        """The pad's two contacts (pad xy, m: the largest region's centre of pressure and the
-        other regions') while it rests on both, at least half its width apart, the other regions
-        carrying at least ``_BRIDGE_SHARE`` of the load; None otherwise."""
+    def _resting_on_two(self) -> bool:
+        """Whether the pad rests on two contacts (its largest region and the others) at least
+        half its width apart, the other regions carrying at least ``_BRIDGE_SHARE`` of the load."""
         f = self.features_raw
         if not (f.in_contact and f.others_tactels > 0 and f.others_force >= _BRIDGE_SHARE * (f.force + f.others_force)):
-            return None
+            return False
         x, y = f.cop_xy
         ox, oy = f.pad.xy_px_to_m(*f.others_cop_px)
-        if math.hypot(ox - x, oy - y) < 0.5 * min(self.pad.size_m):
-            return None
-        return (x, y), (ox, oy)
+        return math.hypot(ox - x, oy - y) >= 0.5 * min(self.pad.size_m)
 
     def _watch_bridge(self) -> None:
         """Mark the strip between the pad's two contacts as a hollow on the map once the pad has
@@ -116,9 +113,8 @@ class FrontierEnds:
         or more), and again every ``bridge_watch_s`` while it goes on."""
         if not self.bridge_watch_s > 0 or self.map is None:
             return
-        pair = self._resting_on_two()
         now = self.now
-        if pair is None or self.features_raw.lesser_share < _BRIDGE_SHARE:
+        if not self._resting_on_two() or self.features_raw.lesser_share < _BRIDGE_SHARE:
             if now - self._bridge_last > _BRIDGE_GAP_S:
                 self._bridge_since = None
             return
@@ -126,8 +122,7 @@ class FrontierEnds:
         if self._bridge_since is None:
             self._bridge_since = now
         elif now - self._bridge_since >= self.bridge_watch_s:
-            a, b = (pad_point(self.pose, *xy) for xy in pair)
-            self.map.mark_bridged(a, b, half_width_m=_BRIDGED_HALF_WIDTH_M)
+            self.map.mark_bridged(*bridge_ends(self.pose, self.features_raw), half_width_m=_BRIDGED_HALF_WIDTH_M)
             self._bridge_since = now
 
     # -- ends of attempts --------------------------------------------------------------------

@@ -44,7 +44,7 @@ from tactile_bt.tree.blackboard import FEATURES_RAW, POSE, TIME, read, read_or, 
 from tactile_bt.tree.declaration import Parameter
 from tactile_bt.tree.parameters import NON_NEGATIVE, POSITIVE, between, normalise_key
 
-__all__ = ["SurfaceEnd", "TiltLimit", "PadTurned", "ContactJumped", "RollingOverEdge", "ContactShrank", "Travelled",
+__all__ = ["bridge_ends", "SurfaceEnd", "TiltLimit", "PadTurned", "ContactJumped", "RollingOverEdge", "ContactShrank", "Travelled",
            "ContactStalled", "ContactBridged", "ATTEMPT_KEY", "ATTEMPT_END_KEY", "unit_vector"]
 
 #: Blackboard key of the planner's attempt number, and of the end of its current attempt.
@@ -427,5 +427,11 @@ class ContactBridged(SurfaceEnd):
         either side of the hollow."""
         if not features.others_tactels > 0:
             return {}
-        return {"bridge": (pad_point(pose, *features.cop_xy),
-                           pad_point(pose, *features.pad.xy_px_to_m(*features.others_cop_px)))}
+        return {"bridge": bridge_ends(pose, features)}
+
+
+def bridge_ends(pose: np.ndarray, features) -> tuple[np.ndarray, np.ndarray]:
+    """The centres (world, m) of a pad's two contacts while it has more than one region: the
+    largest region's centre of pressure and the other regions', for the pad at ``pose``."""
+    return (pad_point(pose, *features.cop_xy),
+            pad_point(pose, *features.pad.xy_px_to_m(*features.others_cop_px)))
