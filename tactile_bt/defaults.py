@@ -167,7 +167,8 @@ SUPERVISOR_PRESSURE_FACTOR: float = 2.0
 SUPERVISOR_PRESSURE_CAP_PA: float = 10.0 * TARGET_PRESSURE_PA
 #: Absolute cap on the contact force (N): the default force limit, and the highest one allowed.
 SUPERVISOR_FORCE_CAP_N: float = 20.0
-#: Time a limit may stay exceeded, the supervisor retreating, before the mission fails (s).
+#: Time a limit may be exceeded, in all, within one intervention (the supervisor retreating all
+#: that time) before the mission fails (s).
 SUPERVISOR_GRACE_S: float = 0.5
 #: Time within every limit after which an intervention counts as over (s).
 SUPERVISOR_CLEAR_S: float = 0.2

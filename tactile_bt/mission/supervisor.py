@@ -14,9 +14,11 @@ the mount does, and enforces what no tree may switch off:
   centre (up to that speed at the border: an object beside the border is left sideways too; never
   towards another contact region seen within ``defaults.SUPERVISOR_BRIDGE_MEMORY_S``), and the
   tree is told through the blackboard
-  (:mod:`tactile_bt.tree.behaviours.supervision`); if a limit is still exceeded ``grace_s`` after
-  the intervention began, the mission ends with ``failure`` naming the limit. An intervention is
-  over once every value has stayed within its limit for ``clear_s``.
+  (:mod:`tactile_bt.tree.behaviours.supervision`); once a limit has been exceeded for ``grace_s``
+  in all within one intervention (the supervisor retreating all that time), the mission ends with
+  ``failure`` naming the limit. An intervention is over once every value has stayed within its
+  limit for ``clear_s``; a tree that presses again before that is still in it, so that its
+  stretches above a limit add up.
 - **live missions**: a silent sensor (no new frame for ``sensor_silence_s``), a stale robot pose
   (older than ``pose_stale_s``) and a pad outside the workspace box end the mission at once,
   with a zero twist.
@@ -65,8 +67,8 @@ class SupervisorLimits:
         Largest smoothed contact force of the contact region (N); at most
         ``defaults.SUPERVISOR_FORCE_CAP_N``.
     grace_s : float
-        Time from the start of an intervention after which a limit still exceeded ends the
-        mission (s).
+        Time above a limit, in all, within one intervention, after which the mission ends (s):
+        the retreat had that long to bring the value back.
     clear_s : float
         Time within every limit after which an intervention is over (s).
     retreat_speed_mps : float
@@ -177,6 +179,8 @@ class Intervention:
 
 
 _UNITS = {"pressure": "Pa", "force": "N"}
+#: Slack on sums of cycle times (s): 125 cycles of 4 ms make 0.5 s, not a hair less.
+_TIME_EPS = 1e-9
 
 
 @dataclass
@@ -343,10 +347,10 @@ class Supervisor:
         run.end_s = t
         if value > run.peak:
             run.peak = value
-        if t - run.start_s >= self.limits.grace_s:
-            self._end(f"{limit} limit: {value:.4g} {unit} above {bound:.4g} {unit} at {t:.2f} s, still "
-                      f"{t - run.start_s:.2f} s after the intervention began (since {run.start_s:.2f} s, "
-                      f"{run.retreat_s:.2f} s of them in retreat)")
+        if run.retreat_s >= self.limits.grace_s - _TIME_EPS:
+            self._end(f"{limit} limit: {value:.4g} {unit} above {bound:.4g} {unit} at {t:.2f} s, above a limit "
+                      f"for {run.retreat_s:.2f} s in all, the pad pulled back, in the {t - run.start_s:.2f} s "
+                      f"since the intervention began at {run.start_s:.2f} s")
             return np.zeros(6)
         self._retreated = run
         retreat = self._retreat.copy()
