@@ -265,9 +265,11 @@ class FrontierMap:
           and at most ``max_width_m`` across their narrower side (of their bounding box in the
           grid).
         - Channels open at their ends (a groove running off the object) that the pad was seen to
-          bridge (:meth:`mark_bridged`): untouched cells that the touched area closes over (a
-          morphological closing with a disc ``max_width_m`` across), in parts that hold cells
-          the pad rested across. A bridge seen beyond the touched area explains nothing there.
+          bridge (:meth:`mark_bridged`): untouched cells connected to the untouched surroundings
+          that the touched area closes over (a morphological closing with a disc ``max_width_m``
+          across), in parts that hold cells the pad rested across. A bridge seen beyond the
+          touched area explains nothing there, nor one across a hole the touched area encloses
+          (a ring's hole wider than the pad, which the pad bridges along its chords).
 
         Cells seen :attr:`empty` belong to no hollow (the table seen through a ring). With
         ``channels`` False, the enclosed holes only; with ``open_rims`` False, not the band a
@@ -289,8 +291,9 @@ class FrontierMap:
                 height, width = (sl.stop - sl.start for sl in box)
                 keep[k] = min(height, width) * self.cell_m <= max_width_m
         found = keep[holes]
-        if channels:
-            found |= self._channels(t, free & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
+        if channels:  # in what runs off into the untouched surroundings only: a wider hole is no channel
+            runs_off = np.isin(holes, outside) & (holes > 0)
+            found |= self._channels(t, runs_off & ~found, 0.5 * max_width_m / self.cell_m, self.hollow[w])
         if not open_rims and self.opened[w].any():  # what lies along a hole found open
             found &= ~parts_touching(holes, self.opened[w])
         out[w] = found

@@ -319,6 +319,20 @@ def test_a_channel_the_pad_was_seen_to_bridge_is_a_valley_but_not_the_untouched_
     assert m.mark_bridged(np.zeros(3), np.array([0.008, 0.0, 0.0]), half_width_m=0.01) == 0
 
 
+def test_a_pad_bridging_a_corner_of_a_hole_wider_than_itself_marks_no_channel():
+    # a ring's hole wider than the pad (here square, 100 mm across, in a touched disc 200 mm
+    # across): the pad rests on two rims across a corner of it; the closing by the pad's width
+    # covers that corner, but the hole runs off nowhere, so it is no channel and no valley
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.12)
+    x, y = (a.ravel() for a in np.meshgrid(np.arange(-0.1, 0.1, 0.001), np.arange(-0.1, 0.1, 0.001)))
+    keep = (np.hypot(x, y) < 0.1) & ((np.abs(x) > 0.05) | (np.abs(y) > 0.05))
+    pts = np.column_stack((x[keep], y[keep], np.full(keep.sum(), 0.05)))
+    m.add(pts, np.tile([0.0, 0.0, 1.0], (len(pts), 1)))
+    assert m.mark_bridged(np.array([-0.056, 0.03, 0.05]), np.array([-0.03, 0.056, 0.05]), half_width_m=0.01) > 0
+    assert m.hollow[m.cell_of(np.array([[-0.046, 0.046]]))[0][0], m.cell_of(np.array([[-0.046, 0.046]]))[0][1]]
+    assert not m.valleys(0.08).any()
+
+
 def test_the_rim_of_a_valley_seen_empty_is_a_hole_and_explained():
     # the dent of the test above, stalled round; a probe then finds it open down to the table
     m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.06)

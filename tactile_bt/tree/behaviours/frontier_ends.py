@@ -76,9 +76,8 @@ class FrontierEnds:
                                    "marks the strip between them as a hollow every this many seconds (s; 0: never, "
                                    "the default). The marks let an untouched channel the pad was seen to bridge, "
                                    "open at its ends, count as a valley, as ``contact_bridged`` does when it ends an "
-                                   "attempt, but without ending it. Off in the shipped tree: on rings the strips "
-                                   "across the hole turn the band along its rim into valleys the estimate counts "
-                                   "(docs/scanning.md, \"Bridging: what the shipped tree leaves out\").")
+                                   "attempt, but without ending it (1.5 s in the shipped scan tree). Strips across a hole "
+                                   "that the touched area encloses (a ring's) mark no channel.")
     alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True,
                           doc="Blackboard key of the table-clearance alarm (the pad's lowest corner, world, while a "
                               "recovering ``table_clearance`` guard finds it too close to the table; None or absent "
