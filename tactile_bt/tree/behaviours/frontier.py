@@ -328,8 +328,6 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         if held:
             self._held = (held, self.now)
         point = self._contact_point()
-        if point is not None:
-            self._watch_bridge()
         if point is None:  # no contact: hold still, the guards decide
             if self.target is not None and self._last_point is not None:
                 self._block(self._last_point, "contact lost", cause="contact lost")  # that way is out of reach from here
@@ -337,6 +335,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
             self._guide(None)
             self._state = "waiting for contact"
             return Status.RUNNING
+        self._watch_bridge()
         self._last_point = point
         now = self.now
         if self._table_alarm(point) or self._supervisor_alarm(point):
