@@ -329,7 +329,8 @@ def test_a_pad_bridging_a_corner_of_a_hole_wider_than_itself_marks_no_channel():
     pts = np.column_stack((x[keep], y[keep], np.full(keep.sum(), 0.05)))
     m.add(pts, np.tile([0.0, 0.0, 1.0], (len(pts), 1)))
     assert m.mark_bridged(np.array([-0.056, 0.03, 0.05]), np.array([-0.03, 0.056, 0.05]), half_width_m=0.01) > 0
-    assert m.hollow[m.cell_of(np.array([[-0.046, 0.046]]))[0][0], m.cell_of(np.array([[-0.046, 0.046]]))[0][1]]
+    corner = m.cell_of(np.array([[-0.046, 0.046]]))[0]  # in the hole, by its corner
+    assert m.hollow[corner[0], corner[1]]
     assert not m.valleys(0.08).any()
 
 
