@@ -450,6 +450,16 @@ class FrontierMap:
         out[w] = near & ~self.empty[w] & ~self._touched(self.count[w])
         return out
 
+    def longest_run_m(self, rows: np.ndarray, cols: np.ndarray) -> float:
+        """Length (m, in cell edges) of the longest run among the cells ``rows, cols``: the most
+        cells of them connected an 8-neighbour apart (0 for none)."""
+        if not len(rows):
+            return 0.0
+        cells = np.zeros((self.n, self.n), dtype=bool)
+        cells[rows, cols] = True
+        labels, _ = ndimage.label(cells, structure=np.ones((3, 3), dtype=bool))
+        return float(np.bincount(labels[rows, cols]).max()) * self.cell_m
+
     def touched_area(self) -> float:
         """Area (m², in the table plane) of the touched cells."""
         return float(np.count_nonzero(self.touched)) * self.cell_m**2

@@ -385,3 +385,13 @@ def test_across_the_band_a_probe_leaves_at_a_wide_hole_s_rim_the_stalls_face_the
     m.empty[:] = m.opened[:] = False
     _, _, _, before = m.classify(math.radians(60), valley_m=0.08)
     assert HOLE not in set(before)
+
+
+def test_the_longest_run_counts_cells_connected_across_corners_but_not_across_a_gap():
+    m = FrontierMap((0.0, 0.0), cell_m=0.002, extent_m=0.05)
+    diagonal = (np.arange(10, 20), np.arange(10, 20))               # 10 cells, corner to corner
+    apart = (np.full(4, 30), np.array([10, 11, 13, 14]))            # 2 + 2 cells, a cell missing
+    rows, cols = np.concatenate((diagonal[0], apart[0])), np.concatenate((diagonal[1], apart[1]))
+    assert m.longest_run_m(rows, cols) == pytest.approx(0.02)
+    assert m.longest_run_m(*apart) == pytest.approx(0.004)
+    assert m.longest_run_m(np.zeros(0, dtype=int), np.zeros(0, dtype=int)) == 0.0

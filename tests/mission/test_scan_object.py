@@ -799,6 +799,29 @@ def test_more_unexplained_frontier_than_a_far_probe_closes_is_not_far_probed():
     assert sum(leaf.frontier_left()["unexplained"].values()) > 0.08
     assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"] == {"verdict": leaf.feedback_message}
 
+def test_runs_of_unexplained_frontier_each_narrower_than_the_pad_are_far_probed():
+    # the same disc with two 50 mm arcs stalled on opposite sides (100 mm in all, more than the
+    # pad's width): each is one far probe's worth, and the nearer is probed first
+    leaf, h = planner_harness(disc(0.05, step=0.002), (0.0, 0.0), table=0.0, reapproach_key="/scan/reapproach",
+                              min_coverage=0.95)
+    assert h.tick(make_features()) == Status.RUNNING
+    for angle in np.linspace(-math.pi, math.pi, 144, endpoint=False):
+        d = np.array([math.cos(angle), math.sin(angle)])
+        off = min(abs(angle), math.pi - abs(angle))  # from the nearer of +x and -x
+        if off > 0.6:
+            leaf.map.close(0.05 * d, 0.006, cause="table")
+        elif off <= 0.5:
+            leaf.map.block(0.05 * d, 0.006, d, cause="stall")
+    arcs = np.concatenate((np.linspace(-0.5, 0.5, 5), math.pi + np.linspace(-0.5, 0.5, 5)))
+    leaf.plan.tried = [0.05 * np.array([math.cos(a), math.sin(a)]) for a in arcs]
+    leaf.target = None
+    _, status = ticks_until_done(h, 10)
+    assert sum(leaf.frontier_left()["unexplained"].values()) > 0.08
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing beyond the frontier"), \
+        leaf.feedback_message
+    assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"]["far"]
+
+
 def _stalled_ring(inner_m, outer_m=0.1, **kw):
     """A planner on a level ring 30 mm above the table, from ``inner_m`` to ``outer_m`` out,
     its outer rim too steep to go on and every attempt at its inner rim stalled."""

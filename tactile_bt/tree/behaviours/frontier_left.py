@@ -256,17 +256,19 @@ class FrontierLeft:
     def _reapproach(self, point: np.ndarray, reasons: frozenset | None = None) -> dict | None:
         """Write a re-approach of the nearest unexplained frontier (or frontier left for one of
         ``reasons``) not tried before to ``reapproach_key`` and return it; None when there is
-        none to try. When the estimated coverage reaches ``min_coverage`` and at most the pad's
-        width of frontier is unexplained, frontier tried before gets a far probe
-        (:class:`~tactile_bt.contacts.reapproach_plan.ReapproachPlan`)."""
+        none to try. When the estimated coverage reaches ``min_coverage`` and no run of
+        unexplained frontier is longer than the pad's width, frontier tried before gets a far
+        probe (:class:`~tactile_bt.contacts.reapproach_plan.ReapproachPlan`)."""
         if not self.reapproach_key or len(self.plan.tried) >= self.max_reapproaches:
             return None
         rows, cols, out, reason = self._classify()
         # frontier tried before is far-probed only where explaining it is all the scan lacks, and
-        # no more of it is left than one far probe closes (the pad's width): a far probe tells an
+        # no run of it is longer than one far probe closes (the pad's width): a far probe tells an
         # edge that drops away, it does not explore (lowered blind beside a bulging side, it
         # presses under the bulge)
-        last = self.coverage >= self.min_coverage and self.unexplained_m() <= min(self.pad.size_m)
+        unexplained = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
+        last = self.coverage >= self.min_coverage and \
+            self.map.longest_run_m(rows[unexplained], cols[unexplained]) <= min(self.pad.size_m)
         far_m = self._far_m() if last else 0.0
         job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad,
                                reasons, far_m=far_m, table_z_m=self.table_z_m)
