@@ -774,6 +774,21 @@ def test_frontier_a_re_approach_reopened_and_a_slide_stalled_at_again_is_probed_
     assert leaf.ends["far re-approach: table"] == 1
 
 
+def test_what_a_far_probe_found_is_taken_in_after_a_return_to_the_surface_that_followed_it():
+    # the far probe came down to the table; the touch after it found nothing, and a return to
+    # the last contact took the key: the far probe's finding still explains the arc
+    leaf, h, job, status = _re_approached_and_stalled_again()
+    far = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    far["result"] = "table"
+    back = {"probe": job["probe"], "home": job["probe"], "top_z": 0.05, "return": True, "pending": far,
+            "result": "surface"}
+    py_trees.blackboard.Blackboard.storage["/scan/reapproach"] = back
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.SUCCESS, leaf.feedback_message
+    assert leaf.ends["far re-approach: table"] == 1 and far["applied"]
+
+
 def test_frontier_tried_before_is_not_far_probed_while_the_estimate_falls_short(monkeypatch):
     from tactile_bt.tree.behaviours import frontier_left
 

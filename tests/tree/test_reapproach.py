@@ -107,6 +107,16 @@ def test_a_touch_that_found_nothing_is_followed_by_a_return_to_the_last_contact(
     npt.assert_allclose(job["probe"][1], normal)
     assert job["top_z"] == pytest.approx(0.04) and job["return"]
 
+    # a job carried out but not yet taken in by the planner goes with the return; one taken in does not
+    found = {"far": True, "result": "table"}
+    h.set("/scan/reapproach", found)
+    assert h.tick(make_features(in_contact=False)) == Status.FAILURE
+    assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"]["pending"] is found
+    found["applied"] = True
+    h.set("/scan/reapproach", found)
+    assert h.tick(make_features(in_contact=False)) == Status.FAILURE
+    assert "pending" not in py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+
     back = Reapproach()
     h = LeafHarness(back, dt=DT, pose=drifted)
     h.set("/scan/reapproach", job)

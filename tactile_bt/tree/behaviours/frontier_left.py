@@ -417,8 +417,11 @@ class FrontierLeft:
         if self.map is None or not isinstance(job, dict) or "result" not in job or job.get("applied"):
             return
         job["applied"] = True
-        if job.get("return"):  # back to the last contact after a touch found nothing: no frontier news
-            return
+        while job.get("return"):  # back to the last contact after a touch found nothing: no frontier
+            job = job.get("pending")  # news, but what the job before it found may be
+            if not isinstance(job, dict) or job.get("applied"):
+                return
+            job["applied"] = True
         if "hole" in job:
             for probed in self._probed:
                 if probed["result"] is None and np.allclose(probed["centre"], job["hole"]["centre"]):

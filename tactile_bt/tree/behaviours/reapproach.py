@@ -366,7 +366,10 @@ class ReturnToSurface(TactileBehaviour):
     "return": True}`` (world, m; the last sample of the mission's contact cloud and its normal,
     and the highest sample) to ``key`` and fails, so that a ``retry`` around the sequence runs
     ``reapproach`` first: it lifts the pad off, moves it over the last contact and approaches it
-    along its normal. It fails without a job when nothing has been recorded yet.
+    along its normal. It fails without a job when nothing has been recorded yet. A job on ``key``
+    carried out but not yet taken in by the planner that wrote it (a far probe that found the
+    table, say, before the touch after it found nothing) goes with the return, under
+    ``"pending"``, for the planner to take in then.
     """
 
     key = Parameter(REAPPROACH_KEY, fixed=True, doc="Blackboard key of the pending re-approach (a dict).")
@@ -384,7 +387,11 @@ class ReturnToSurface(TactileBehaviour):
             return Status.FAILURE
         point, normal = cloud.points[-1].copy(), cloud.normals[-1].copy()
         top_z = float(np.max(cloud.points[:, 2]))
-        write(self.key, {"probe": (point, normal), "home": (point, normal), "top_z": top_z, "return": True})
+        job = {"probe": (point, normal), "home": (point, normal), "top_z": top_z, "return": True}
+        before = read_or(self.key)
+        if isinstance(before, dict) and "result" in before and not before.get("applied"):
+            job["pending"] = before  # what it found is still news to the planner
+        write(self.key, job)
         x, y, z = point * 1e3
         self.feedback_message = f"no contact: returning to the last contact at ({x:.0f}, {y:.0f}, {z:.0f}) mm"
         return Status.FAILURE
