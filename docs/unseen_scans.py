@@ -97,11 +97,27 @@ OBJECTS = {
     "lumpy_big": ("lumpy mesh 159 × 103 × 63 mm, 1e5 N/m, turned 15°", "lumpy_big", 60,
                   "  - {type: mesh, path: lumpy_big.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
                   "rpy_deg: [0, 0, 15], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    # added later, untuned: other sizes and poses of the same kinds
+    "torus_thin": _torus(0.065, 0.02, "between the pad's width and diagonal"),
+    "torus_big": _torus(0.09, 0.025, "wider than the pad"),
+    "pyramid_35": _pyramid(0.15, 35, 70, 1.0e5),
+    "pyramid_50": _pyramid(0.11, 50, -35, 2.0e5),
+    "groove_deep": _grooved_block((0.16, 0.14, 0.03), 0.108, 0.010, 60),
+    "capsule_fat": ("capsule 60 mm across, 160 mm long, 1e5 N/m, turned 75°", 0.06, 60,
+                    "  - {type: capsule, radius: 0.03, length: 0.10, position: [0, 0, 0.03], rpy_deg: [0, 0, 75], "
+                    "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "box_flat": ("box 100 × 70 × 25 mm, 1e5 N/m, turned 15°", 0.025, 10,
+                 "  - {type: box, size: [0.10, 0.07, 0.025], position: [0, 0, 0.0125], rpy_deg: [0, 0, 15], "
+                 "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
+    "cylinder_small": ("cylinder 60 mm across, 120 mm long, 5e4 N/m, turned −60°", 0.06, 60,
+                       "  - {type: cylinder, radius: 0.03, length: 0.12, position: [0, 0, 0.03], rpy_deg: [0, 0, -60], "
+                       "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
 }
 #: The lumpy meshes: semi-axes (m) and seed of make_scan_stone.py's recipe.
 MESHES = {"lumpy_soft": ((0.054, 0.036, 0.028), 11), "lumpy_big": ((0.075, 0.05, 0.062), 3)}
 #: A scene with a goal of its own, as docs/exploration_scenes.py has for the shipped groove.
-COVERAGE_OF = {"unseen_groove_narrow": 0.90, "unseen_groove_shallow": 0.90, "unseen_groove_mid": 0.90}
+COVERAGE_OF = {"unseen_groove_narrow": 0.90, "unseen_groove_shallow": 0.90, "unseen_groove_mid": 0.90,
+               "unseen_groove_deep": 0.90}
 
 
 def _make_mesh(name: str, folder: Path) -> float:
