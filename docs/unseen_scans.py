@@ -30,6 +30,40 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import exploration_scenes  # noqa: E402  (docs/exploration_scenes.py, beside this file)
 
 
+def _turned(yaw_deg: int) -> str:
+    """``yaw_deg`` as a description writes it (with a minus sign)."""
+    return f"{yaw_deg}".replace("-", "\N{MINUS SIGN}")
+
+
+def _stiffness(stiffness: float) -> tuple[str, str]:
+    """``stiffness`` (N/m) as a description and as the scene writes it: ("5e4", "5.0e4")."""
+    exponent = math.floor(math.log10(stiffness))
+    mantissa = stiffness / 10**exponent
+    return f"{mantissa:g}e{exponent}", f"{mantissa:.1f}e{exponent}"
+
+
+def _box(size_m: tuple, yaw_deg: int, stiffness: float, note: str = "") -> tuple:
+    """The entry of a box ``size_m`` (x, y, z) standing on the table, turned ``yaw_deg`` about
+    the vertical, ``stiffness`` (N/m); ``note`` follows its size in the description."""
+    mm = " × ".join(str(round(1e3 * v)) for v in size_m)
+    k, k_yaml = _stiffness(stiffness)
+    return (f"box {mm} mm{note}, {k} N/m, turned {_turned(yaw_deg)}°", size_m[2], 10,
+            f"  - {{type: box, size: [{', '.join(f'{v:g}' for v in size_m)}], position: [0, 0, {size_m[2] / 2:g}], "
+            f"rpy_deg: [0, 0, {yaw_deg}], stiffness: {k_yaml}, friction: 0.5}}\n", 0.0)
+
+
+def _lying(kind: str, radius_m: float, length_m: float, yaw_deg: int, stiffness: float) -> tuple:
+    """The entry of a capsule or cylinder (``kind``) lying on the table along its axis, turned
+    ``yaw_deg`` about the vertical, ``stiffness`` (N/m); a capsule's ``length_m`` is its
+    cylinder's, without the caps."""
+    k, k_yaml = _stiffness(stiffness)
+    long = length_m + (2 * radius_m if kind == "capsule" else 0.0)
+    return (f"{kind} {round(2e3 * radius_m)} mm across, {round(1e3 * long)} mm long, {k} N/m, turned "
+            f"{_turned(yaw_deg)}°", 2 * radius_m, 60,
+            f"  - {{type: {kind}, radius: {radius_m:g}, length: {length_m:g}, position: [0, 0, {radius_m:g}], "
+            f"rpy_deg: [0, 0, {yaw_deg}], stiffness: {k_yaml}, friction: 0.5}}\n", 0.0)
+
+
 def _torus(major_m: float, minor_m: float, hole: str) -> tuple:
     """The entry of a ring lying flat on the table (1e5 N/m), the pad starting over its tube:
     ``hole`` says how its hole compares with the pad."""
@@ -65,12 +99,8 @@ def _grooved_block(size_m: tuple, groove_m: float, depth_m: float, yaw_deg: int)
 #: name -> (description, top height (m), region's largest angle (deg), objects YAML, pad start x (m)).
 #: A lumpy mesh's top is known only once it is made: its entry gives the mesh's name instead.
 OBJECTS = {
-    "box_small": ("box 80 × 60 × 30 mm (smaller than the pad), 5e4 N/m, turned 60°", 0.03, 10,
-                  "  - {type: box, size: [0.08, 0.06, 0.03], position: [0, 0, 0.015], rpy_deg: [0, 0, 60], "
-                  "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
-    "capsule_thin": ("capsule 50 mm across, 170 mm long, 5e4 N/m, turned −40°", 0.05, 60,
-                     "  - {type: capsule, radius: 0.025, length: 0.12, position: [0, 0, 0.025], rpy_deg: [0, 0, -40], "
-                     "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
+    "box_small": _box((0.08, 0.06, 0.03), 60, 5.0e4, " (smaller than the pad)"),
+    "capsule_thin": _lying("capsule", 0.025, 0.12, -40, 5.0e4),
     "groove_narrow": _grooved_block((0.14, 0.16, 0.04), 0.09, 0.008, 20),
     "pyramid_small": _pyramid(0.12, 35, 10, 2.0e5),
     "torus_wide": _torus(0.08, 0.03, "wider than the pad"),
@@ -85,33 +115,23 @@ OBJECTS = {
     "pyramid_40": _pyramid(0.10, 40, -20, 1.0e5),
     "groove_shallow": _grooved_block((0.15, 0.17, 0.035), 0.115, 0.006, -45),
     "groove_mid": _grooved_block((0.15, 0.15, 0.035), 0.10, 0.007, 35),
-    "cylinder_turned": ("cylinder 70 mm across, 150 mm long, 5e4 N/m, turned 35°", 0.07, 60,
-                        "  - {type: cylinder, radius: 0.035, length: 0.15, position: [0, 0, 0.035], rpy_deg: [0, 0, 35], "
-                        "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
-    "box_big": ("box 130 × 110 × 45 mm, 2e5 N/m, turned −25°", 0.045, 10,
-                "  - {type: box, size: [0.13, 0.11, 0.045], position: [0, 0, 0.0225], rpy_deg: [0, 0, -25], "
-                "stiffness: 2.0e5, friction: 0.5}\n", 0.0),
+    "cylinder_turned": _lying("cylinder", 0.035, 0.15, 35, 5.0e4),
+    "box_big": _box((0.13, 0.11, 0.045), -25, 2.0e5),
     "lumpy_soft": ("lumpy mesh 108 × 72 × 29 mm, soft (2e4 N/m), turned −50°", "lumpy_soft", 60,
                    "  - {type: mesh, path: lumpy_soft.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
                    "rpy_deg: [0, 0, -50], stiffness: 2.0e4, friction: 0.5}\n", 0.0),
     "lumpy_big": ("lumpy mesh 159 × 103 × 63 mm, 1e5 N/m, turned 15°", "lumpy_big", 60,
                   "  - {type: mesh, path: lumpy_big.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
                   "rpy_deg: [0, 0, 15], stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    # added later, untuned: other sizes and poses of the same kinds
+    # added later: other sizes and poses of the same kinds
     "torus_thin": _torus(0.065, 0.02, "between the pad's width and diagonal"),
     "torus_big": _torus(0.09, 0.025, "wider than the pad"),
     "pyramid_35": _pyramid(0.15, 35, 70, 1.0e5),
     "pyramid_50": _pyramid(0.11, 50, -35, 2.0e5),
     "groove_deep": _grooved_block((0.16, 0.14, 0.03), 0.108, 0.010, 60),
-    "capsule_fat": ("capsule 60 mm across, 160 mm long, 1e5 N/m, turned 75°", 0.06, 60,
-                    "  - {type: capsule, radius: 0.03, length: 0.10, position: [0, 0, 0.03], rpy_deg: [0, 0, 75], "
-                    "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    "box_flat": ("box 100 × 70 × 25 mm, 1e5 N/m, turned 15°", 0.025, 10,
-                 "  - {type: box, size: [0.10, 0.07, 0.025], position: [0, 0, 0.0125], rpy_deg: [0, 0, 15], "
-                 "stiffness: 1.0e5, friction: 0.5}\n", 0.0),
-    "cylinder_small": ("cylinder 60 mm across, 120 mm long, 5e4 N/m, turned −60°", 0.06, 60,
-                       "  - {type: cylinder, radius: 0.03, length: 0.12, position: [0, 0, 0.03], rpy_deg: [0, 0, -60], "
-                       "stiffness: 5.0e4, friction: 0.5}\n", 0.0),
+    "capsule_fat": _lying("capsule", 0.03, 0.10, 75, 1.0e5),
+    "box_flat": _box((0.10, 0.07, 0.025), 15, 1.0e5),
+    "cylinder_small": _lying("cylinder", 0.03, 0.12, -60, 5.0e4),
 }
 #: The lumpy meshes: semi-axes (m) and seed of make_scan_stone.py's recipe.
 MESHES = {"lumpy_soft": ((0.054, 0.036, 0.028), 11), "lumpy_big": ((0.075, 0.05, 0.062), 3)}
