@@ -814,9 +814,10 @@ def test_more_unexplained_frontier_than_a_far_probe_closes_is_not_far_probed():
     assert sum(leaf.frontier_left()["unexplained"].values()) > 0.08
     assert py_trees.blackboard.Blackboard.storage["/scan/reapproach"] == {"verdict": leaf.feedback_message}
 
+
 def test_runs_of_unexplained_frontier_each_narrower_than_the_pad_are_far_probed():
     # the same disc with two 50 mm arcs stalled on opposite sides (100 mm in all, more than the
-    # pad's width): each is one far probe's worth, and the nearer is probed first
+    # pad's width), every part of them re-approached: each arc is one far probe's worth
     leaf, h = planner_harness(disc(0.05, step=0.002), (0.0, 0.0), table=0.0, reapproach_key="/scan/reapproach",
                               min_coverage=0.95)
     assert h.tick(make_features()) == Status.RUNNING
