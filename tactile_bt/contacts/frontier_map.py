@@ -21,7 +21,7 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = ["FrontierMap", "SECTORS", "SMALL_HOLE_CELLS", "OPEN", "GAP", "VALLEY", "HOLE", "HOLE_RIM_M", "WRIST",
-           "EXPLAINING", "sector", "describe_left", "parts_touching"]
+           "EXPLAINING", "sector", "describe_left", "parts_touching", "unexplained"]
 
 #: Untouched holes of at most this many cells count as touched (see :attr:`FrontierMap.touched`).
 SMALL_HOLE_CELLS = 2
@@ -65,6 +65,12 @@ def parts_touching(labels: np.ndarray, cells: np.ndarray) -> np.ndarray:
     near = ndimage.binary_dilation(cells, structure=np.ones((3, 3), dtype=bool))
     keep = np.unique(labels[near & (labels > 0)])
     return np.isin(labels, keep)
+
+
+def unexplained(reason: np.ndarray) -> np.ndarray:
+    """``(k,)`` bool: which frontier cells of :meth:`FrontierMap.classify`'s ``reason`` have no
+    explaining reason (not one of :data:`EXPLAINING`, nor a :data:`GAP`)."""
+    return np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
 
 
 def sector(direction_xy: np.ndarray) -> np.ndarray:

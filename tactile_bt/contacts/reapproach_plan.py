@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, FrontierMap
+from tactile_bt.contacts.frontier_map import FrontierMap, unexplained
 
 __all__ = ["ReapproachPlan", "clamp_tilt"]
 
@@ -75,7 +75,7 @@ class ReapproachPlan:
         (centred ``far_m`` beyond it, see :meth:`apply`) of the nearest not within ``radius_m``
         of one far-probed before."""
         if reasons is None:
-            keep = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
+            keep = unexplained(reason)
         else:
             keep = np.isin(np.asarray(reason).astype(str), sorted(reasons))
         if self.far is not None:

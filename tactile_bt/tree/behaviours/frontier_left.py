@@ -29,7 +29,7 @@ from py_trees.common import Status
 from scipy import ndimage
 
 from tactile_bt import defaults
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST, parts_touching
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, VALLEY, WRIST, parts_touching, unexplained
 from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points
 from tactile_bt.contacts.sweep_plan import END_INSIDE_M, SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import face_going_on, untouched_below, untouched_beyond
@@ -266,9 +266,9 @@ class FrontierLeft:
         # no run of it is longer than one far probe closes (the pad's width): a far probe tells an
         # edge that drops away, it does not explore (lowered blind beside a bulging side, it
         # presses under the bulge)
-        unexplained = np.array([r not in EXPLAINING and r != GAP for r in reason], dtype=bool)
+        left = unexplained(reason)
         last = self.coverage >= self.min_coverage and \
-            self.map.longest_run_m(rows[unexplained], cols[unexplained]) <= min(self.pad.size_m)
+            self.map.longest_run_m(rows[left], cols[left]) <= min(self.pad.size_m)
         far_m = self._far_m() if last else 0.0
         job = self.plan.choose(self.map, rows, cols, out, reason, point[:2], self.max_tilt_rad - self.tilt_margin_rad,
                                reasons, far_m=far_m, table_z_m=self.table_z_m)
