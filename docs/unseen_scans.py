@@ -76,21 +76,19 @@ def _torus(major_m: float, minor_m: float, hole: str) -> tuple:
 def _pyramid(base_m: float, slope_deg: float, yaw_deg: int, stiffness: float) -> tuple:
     """The entry of a square pyramid standing on the table, ``base_m`` across, its faces
     ``slope_deg`` steep, turned ``yaw_deg`` about the vertical, ``stiffness`` (N/m)."""
-    turned = f"{yaw_deg}".replace("-", "\N{MINUS SIGN}")
-    k = stiffness / 1e5
-    return (f"square pyramid, {round(1e3 * base_m)} mm base, faces at {slope_deg:g}°, {k:g}e5 N/m, turned {turned}°",
-            0.5 * base_m * math.tan(math.radians(slope_deg)), 60,
+    k, k_yaml = _stiffness(stiffness)
+    return (f"square pyramid, {round(1e3 * base_m)} mm base, faces at {slope_deg:g}°, {k} N/m, turned "
+            f"{_turned(yaw_deg)}°", 0.5 * base_m * math.tan(math.radians(slope_deg)), 60,
             f"  - {{type: pyramid, base: {base_m:.2f}, slope_deg: {slope_deg:g}, position: [0, 0, 0], "
-            f"rpy_deg: [0, 0, {yaw_deg}], stiffness: {k:.1f}e5, friction: 0.5}}\n", 0.0)
+            f"rpy_deg: [0, 0, {yaw_deg}], stiffness: {k_yaml}, friction: 0.5}}\n", 0.0)
 
 
 def _grooved_block(size_m: tuple, groove_m: float, depth_m: float, yaw_deg: int) -> tuple:
     """The entry of a block ``size_m`` (x, y, z) standing on the table (1e5 N/m), a groove
     ``groove_m`` wide and ``depth_m`` deep along its top, turned ``yaw_deg`` about the vertical."""
     mm = " × ".join(str(round(1e3 * v)) for v in size_m)
-    turned = f"{yaw_deg}".replace("-", "\N{MINUS SIGN}")
     return (f"block {mm} mm with a groove {round(1e3 * groove_m)} mm wide and {round(1e3 * depth_m)} mm deep, 1e5 N/m, "
-            f"turned {turned}°", size_m[2], 60,
+            f"turned {_turned(yaw_deg)}°", size_m[2], 60,
             f"  - {{type: grooved_block, size: [{', '.join(f'{v:g}' for v in size_m)}], groove_width: {groove_m:g}, "
             f"groove_depth: {depth_m:g}, position: [0, 0, {size_m[2] / 2:g}], rpy_deg: [0, 0, {yaw_deg}], "
             "stiffness: 1.0e5, friction: 0.5}\n", 0.0)
