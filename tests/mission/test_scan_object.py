@@ -117,10 +117,11 @@ class _Twist(TactileBehaviour):
         return Status.RUNNING
 
 
-def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), **guard):
+def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), sink_mps=0.0, may_fail=False, **guard):
     """A leaf adding ``twist`` and, after it, a braking guard; the pad moved by the cycle's twist
-    (within the twist ``limits``, m/s and rad/s) each tick. Returns the guard, the corner heights
-    and the twists applied."""
+    (within the twist ``limits``, m/s and rad/s) each tick, and lowered by ``sink_mps`` (world z)
+    beyond it. Returns the guard, the corner heights and the twists applied; the run ends where
+    the guard fails if ``may_fail`` (a failure is an assertion error otherwise)."""
     guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0, brake_s=0.2, **guard)
     root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
                                         children=[_Twist(twist), guard])
@@ -130,10 +131,14 @@ def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), **guard):
     heights, applied = [], []
     T = start
     for _ in range(int(seconds / DT)):
-        assert h.tick(frame=contact_frame()) == Status.RUNNING, guard.feedback_message
+        status = h.tick(frame=contact_frame())
+        if may_fail and status == Status.FAILURE:
+            break
+        assert status == Status.RUNNING, guard.feedback_message
         V = h.command.twist()
         applied.append(V)
         T = T @ exp_twist(V, DT)
+        T[2, 3] -= sink_mps * DT
         h.set_pose(T)
         heights.append(pad_clearance(T, PAD, 0.0))
     return guard, np.array(heights), np.array(applied)
@@ -175,6 +180,37 @@ def test_the_brake_holds_while_the_slide_is_at_the_twist_limit():
     assert guard.trips == 0 and guard.braked
     assert np.linalg.norm(applied[:, :3], axis=1).max() <= limits[0] + 1e-12  # within the limit as sent
     assert np.linalg.norm(applied[-1, :3] @ start[:3, :3].T[:, :2]) > 0.02  # still sliding across
+
+
+def test_the_brake_lifts_against_a_sinking_the_twist_does_not_explain():
+    # a compliant arm pivoting the pad about an edge: the pad sinks at 10 mm/s (world z) while
+    # the twist holds it still. The brake measures the sinking and lifts against it; the corner
+    # settles above the limit. Reckoning with the twist alone, it never brakes and the pad lands.
+    start = pose(tilted(20), (0.0, 0.0, 0.02))
+    guard, heights, applied = _braked_run((0.0,) * 6, start, seconds=2.0, sink_mps=0.01, sink_tau_s=0.05)
+    assert heights.min() >= 0.0005 and guard.trips == 0 and guard.braked
+    assert_allclose(guard.sink_mps.min(), -0.01, rtol=0.05)
+    assert abs(heights[-1] - heights[-50]) < 1e-4  # held: the lift balances the sinking
+    blind, heights, _ = _braked_run((0.0,) * 6, start, seconds=2.0, sink_mps=0.01, may_fail=True)  # off by default
+    assert blind.status == Status.FAILURE and "touches the table" in blind.feedback_message
+
+
+def test_a_lift_that_a_contact_holds_back_is_no_sinking():
+    # the twist lifts the pad at 10 mm/s (world z) while a contact holds it back to 1 mm/s: the
+    # corners rise less than asked, but they do not come down, and that is no sinking
+    start = pose(tilted(20), (0.0, 0.0, 0.02))
+    up = start[2, :3]  # the world's z in the sensor frame
+    guard, heights, _ = _braked_run(tuple(0.01 * up) + (0.0, 0.0, 0.0), start, seconds=0.5, sink_mps=0.009,
+                                    sink_tau_s=0.05)
+    assert np.all(np.diff(heights) > 0.0)
+    assert (guard.sink_mps == 0.0).all()
+
+
+def test_the_brake_ignores_motion_that_lifts_the_pad_beyond_its_twist():
+    start = pose(tilted(20), (0.0, 0.0, 0.02))
+    guard, heights, applied = _braked_run((0.0,) * 6, start, seconds=0.5, sink_mps=-0.01, sink_tau_s=0.05)
+    assert not guard.braked and (guard.sink_mps == 0.0).all()
+    assert_allclose(applied, 0.0)
 
 
 def test_without_a_brake_the_same_roll_trips_the_guard():

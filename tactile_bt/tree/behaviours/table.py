@@ -108,6 +108,17 @@ class TableClearance(TactileBehaviour):
     would swing a corner down onto the table at 1 rad/s then slows as the corner nears it, and
     the corner settles above the limit instead of tripping the guard; the pad's sliding goes
     on, and motions that lift the corners are never slowed.
+
+    With ``sink_tau_s > 0`` the brake also watches how the corners really move (off by default:
+    docs/scanning.md says why the shipped scan leaves it off). A compliant arm does not go exactly
+    where the twist sends it: pressed against an edge near the pad's border, it pivots the pad
+    about the edge, and the far corner sinks although the twist holds it (a pad tilted 20° over
+    a block's edge sank onto the table at 5–13 mm/s under a twist that kept its corner still).
+    Each cycle it compares each corner's height with where the last cycle's twist should have
+    taken it; the sinking beyond the twist, smoothed over ``sink_tau_s``, counts as part of the
+    corners' motion in the next prediction, and the brake lifts the pad against it. Only a
+    corner that really came down sank: one that rose less than the twist asked (a lift that a
+    loaded contact holds back) did not, and motion upwards beyond the twist is ignored.
     """
 
     min_clearance_m = Parameter(0.001, doc="Least height of the lowest corner above the table (m; may be negative to "
@@ -125,6 +136,10 @@ class TableClearance(TactileBehaviour):
                             "this time.")
     brake_margin_m = Parameter(0.001, bound=NON_NEGATIVE, doc="Height above ``min_clearance_m`` the brake keeps the "
                                                               "corners at (m).")
+    sink_tau_s = Parameter(0.0, bound=NON_NEGATIVE,
+                           doc="Time constant (s) over which the brake smooths how fast the corners sink beyond "
+                               "what the twist explains (a compliant arm pivoting the pad about an edge; 0.05 s "
+                               "works); 0: the brake reckons with the twist alone.")
     table_key = Parameter(TABLE_Z_KEY, fixed=True, doc="Blackboard key of the table's height (m, world z).")
     alarm_key = Parameter(TABLE_ALARM_KEY, fixed=True, doc="Blackboard key of the alarm (see above).")
 
@@ -142,6 +157,9 @@ class TableClearance(TactileBehaviour):
         self._tripped_at: float | None = None
         #: Whether the brake slowed the twist down at the last tick.
         self.braked = False
+        #: The corners' sinking beyond the twist (m/s, world z, each <= 0), smoothed.
+        self.sink_mps = np.zeros(4)
+        self._reset_sink()
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -151,6 +169,7 @@ class TableClearance(TactileBehaviour):
         self.table_z_m = table_height(self._setup, self.table_key)
         self.trips = 0
         self._tripped_at = None
+        self._reset_sink()
         self._setup.set(self.alarm_key, None)
 
     def terminate(self, new_status: Status) -> None:
@@ -167,7 +186,12 @@ class TableClearance(TactileBehaviour):
         corner = lowest_corner(self.pose, self.pad, self.margin_m)
         self.clearance_m = clearance = float(corner[2] - self.table_z_m)
         if self.brake_s > 0:
+            watching = self.sink_tau_s > 0
+            if watching:
+                self._watch_sink()
             self._brake()
+            if watching:
+                self._expect()
         if clearance >= self.min_clearance_m:
             self._tripped_at = None
             self._setup.set(self.alarm_key, None)
@@ -193,6 +217,45 @@ class TableClearance(TactileBehaviour):
         self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
 
+    def _reset_sink(self) -> None:
+        self.sink_mps = np.zeros(4)
+        self._beyond_mps = np.zeros(4)
+        #: The corners' heights (m, world z) at the last tick, the rates (m/s) its twist should
+        #: have moved them by, and the time (s); None before the first braking tick.
+        self._expected: tuple[np.ndarray, np.ndarray, float] | None = None
+
+    def _corner_heights(self) -> np.ndarray:
+        pose = self.pose
+        return pad_corners(self.pad, self.margin_m) @ pose[2, :3] + pose[2, 3]
+
+    def _watch_sink(self) -> None:
+        """Update :attr:`sink_mps` from how far the corners came since the last tick against
+        where its twist should have taken them."""
+        if self._expected is None:
+            return
+        heights, rates, then = self._expected
+        dt = self.now - then
+        if not 0.0 < dt <= max(10.0 * self.sink_tau_s, 0.05):  # not the last tick's successor: start again
+            self._reset_sink()
+            return
+        actual = (self._corner_heights() - heights) / dt
+        # a corner that did not come down did not sink, whatever the twist asked: a lift that a
+        # loaded contact holds back is no sinking
+        beyond = np.where(actual < 0.0, actual - rates, np.maximum(actual - rates, 0.0))
+        # smoothed both ways and clipped only after: a pose measured less often than the tree
+        # ticks moves by nothing, then by twice the twist, and must not leave a bias downwards
+        self._beyond_mps += dt / (self.sink_tau_s + dt) * (beyond - self._beyond_mps)
+        self.sink_mps = np.minimum(self._beyond_mps, 0.0)
+
+    def _expect(self) -> None:
+        """Remember the corners' heights and the rates the cycle's twist (as the limits send
+        it) moves them by, for :meth:`_watch_sink` at the next tick."""
+        twist = self.command.twist()
+        up = self.pose[2, :3]
+        corners = pad_corners(self.pad, self.margin_m)
+        rates = twist[:3] @ up + np.cross(twist[3:], corners) @ up
+        self._expected = (self._corner_heights(), rates, self.now)
+
     def _brake(self) -> None:
         """Slow the cycle's turn down, and lift the pad if its translation alone would still
         do it, so that no corner comes below the brake's floor within ``brake_s`` (see the
@@ -205,8 +268,9 @@ class TableClearance(TactileBehaviour):
         pose = self.pose
         corners = pad_corners(self.pad, self.margin_m)
         up = pose[2, :3]  # the world's z in the sensor frame
+        # the rate each corner may come down at, less what it sinks by beyond the twist
         floor_rate = -(np.maximum(corners @ up + pose[2, 3] - self.table_z_m
-                                  - (self.min_clearance_m + self.brake_margin_m), 0.0)) / self.brake_s
+                                  - (self.min_clearance_m + self.brake_margin_m), 0.0)) / self.brake_s - self.sink_mps
         a = float(v @ up)  # m/s of every corner, world z, from the translation
         b = np.cross(w, corners) @ up  # and from the turn
         short = floor_rate - (a + b)
