@@ -157,8 +157,6 @@ class TableClearance(TactileBehaviour):
         self._tripped_at: float | None = None
         #: Whether the brake slowed the twist down at the last tick.
         self.braked = False
-        #: The corners' sinking beyond the twist (m/s, world z, each <= 0), smoothed.
-        self.sink_mps = np.zeros(4)
         self._reset_sink()
 
     def setup(self, **kwargs) -> None:
@@ -218,6 +216,7 @@ class TableClearance(TactileBehaviour):
         return Status.RUNNING
 
     def _reset_sink(self) -> None:
+        #: The corners' sinking beyond the twist (m/s, world z, each <= 0), smoothed.
         self.sink_mps = np.zeros(4)
         self._beyond_mps = np.zeros(4)
         #: The corners' heights (m, world z) at the last tick, the rates (m/s) its twist should
