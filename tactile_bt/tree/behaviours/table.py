@@ -215,17 +215,28 @@ class TableClearance(TactileBehaviour):
         self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
 
+    @property
+    def sink_mps(self) -> np.ndarray:
+        """The corners' sinking beyond the twist (m/s, world z, each <= 0), smoothed."""
+        return np.minimum(self._beyond_mps, 0.0)
+
     def _reset_sink(self) -> None:
-        #: The corners' sinking beyond the twist (m/s, world z, each <= 0), smoothed.
-        self.sink_mps = np.zeros(4)
+        #: The corners' motion beyond the twist (m/s, world z), smoothed both ways.
         self._beyond_mps = np.zeros(4)
         #: The corners' heights (m, world z) at the last tick, the rates (m/s) its twist should
         #: have moved them by, and the time (s); None before the first braking tick.
         self._expected: tuple[np.ndarray, np.ndarray, float] | None = None
 
     def _corner_heights(self) -> np.ndarray:
+        """The heights (m, world z) of the pad's four corners (:func:`pad_corners`)."""
         pose = self.pose
         return pad_corners(self.pad, self.margin_m) @ pose[2, :3] + pose[2, 3]
+
+    def _corner_rates(self, twist: np.ndarray) -> tuple[float, np.ndarray]:
+        """How fast ``twist`` (sensor frame) moves the corners along the world's z (m/s): the
+        translation's share, the same for every corner, and the turn's, one per corner."""
+        up = self.pose[2, :3]  # the world's z in the sensor frame
+        return float(twist[:3] @ up), np.cross(twist[3:], pad_corners(self.pad, self.margin_m)) @ up
 
     def _watch_sink(self) -> None:
         """Update :attr:`sink_mps` from how far the corners came since the last tick against
@@ -241,19 +252,15 @@ class TableClearance(TactileBehaviour):
         # a corner that did not come down did not sink, whatever the twist asked: a lift that a
         # loaded contact holds back is no sinking
         beyond = np.where(actual < 0.0, actual - rates, np.maximum(actual - rates, 0.0))
-        # smoothed both ways and clipped only after: a pose measured less often than the tree
-        # ticks moves by nothing, then by twice the twist, and must not leave a bias downwards
+        # smoothed both ways and clipped only after (sink_mps): a pose measured less often than
+        # the tree ticks moves by nothing, then by twice the twist, and must not leave a bias
         self._beyond_mps += dt / (self.sink_tau_s + dt) * (beyond - self._beyond_mps)
-        self.sink_mps = np.minimum(self._beyond_mps, 0.0)
 
     def _expect(self) -> None:
         """Remember the corners' heights and the rates the cycle's twist (as the limits send
         it) moves them by, for :meth:`_watch_sink` at the next tick."""
-        twist = self.command.twist()
-        up = self.pose[2, :3]
-        corners = pad_corners(self.pad, self.margin_m)
-        rates = twist[:3] @ up + np.cross(twist[3:], corners) @ up
-        self._expected = (self._corner_heights(), rates, self.now)
+        a, b = self._corner_rates(self.command.twist())
+        self._expected = (self._corner_heights(), a + b, self.now)
 
     def _brake(self) -> None:
         """Slow the cycle's turn down, and lift the pad if its translation alone would still
@@ -264,14 +271,11 @@ class TableClearance(TactileBehaviour):
         # would see its lift scaled down with the slide when the slide is at the limit
         twist = command.twist()
         v, w = twist[:3], twist[3:]
-        pose = self.pose
-        corners = pad_corners(self.pad, self.margin_m)
-        up = pose[2, :3]  # the world's z in the sensor frame
+        up = self.pose[2, :3]  # the world's z in the sensor frame
         # the rate each corner may come down at, less what it sinks by beyond the twist
-        floor_rate = -(np.maximum(corners @ up + pose[2, 3] - self.table_z_m
+        floor_rate = -(np.maximum(self._corner_heights() - self.table_z_m
                                   - (self.min_clearance_m + self.brake_margin_m), 0.0)) / self.brake_s - self.sink_mps
-        a = float(v @ up)  # m/s of every corner, world z, from the translation
-        b = np.cross(w, corners) @ up  # and from the turn
+        a, b = self._corner_rates(twist)  # m/s of every corner, world z: the translation's, the turn's
         short = floor_rate - (a + b)
         self.braked = bool((short > 0.0).any())
         if not self.braked:
