@@ -198,16 +198,18 @@ class SweepPlan:
         self.new_m = float(new_m)
         self.swept: list[dict] = []
 
-    def choose(self, candidates: list[dict], from_xy: np.ndarray) -> dict | None:
+    def choose(self, candidates: list[dict], from_xy: np.ndarray, take: bool = True) -> dict | None:
         """The candidate (:func:`foot_runs`, :func:`valley_sides`) nearest to ``from_xy``
-        (world, m) not swept before; None when none is left or ``most`` have been swept."""
+        (world, m) not swept before; None when none is left or ``most`` have been swept. With
+        ``take`` False it is not counted as swept: whether a sweep is left to make."""
         if len(self.swept) >= self.most:
             return None
         fresh = [r for r in candidates if not any(self._covers(d, r) for d in self.swept)]
         if not fresh:
             return None
         run = min(fresh, key=lambda r: float(np.linalg.norm(r["centre"] - np.asarray(from_xy)[:2])))
-        self.swept.append(run)
+        if take:
+            self.swept.append(run)
         return run
 
     def _covers(self, done: dict, run: dict) -> bool:

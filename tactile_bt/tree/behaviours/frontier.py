@@ -81,9 +81,6 @@ _POINT_FILTER_S = 0.1
 _BORDER_SLOW_M = 0.012
 _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
-#: A band the table left at the foot of plane faces larger than this share of the touched area is
-#: swept (when sweeps are on) even when the scan could end without it.
-_BAND_WORTH = 0.01
 
 
 class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
@@ -401,8 +398,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
                         self.feedback_message = f"no reachable frontier left, but {left} ({counts})"
                         return self._verdict()
                     # enough, but a band at the foot worth a sweep is still left: sweep it while sweeps last
-                    if self.below_m2 > _BAND_WORTH * self.map.touched_area() \
-                            and self._asked_sweep(point, f"{left} ({counts})"):
+                    if self.band_worth_sweeping() and self._asked_sweep(point, f"{left} ({counts})"):
                         return Status.FAILURE
                     self.feedback_message = f"no reachable frontier left ({counts}); frontier left: {left}"
                     return Status.SUCCESS

@@ -59,6 +59,9 @@ _HOLE_INWARDS = (0.0, 0.15, 0.3, 0.45)
 _FAR_M = 0.003
 #: Blackboard key of the frontier left (see :meth:`FrontierLeft.frontier_left`).
 FRONTIER_LEFT_KEY = "/scan/frontier_left"
+#: A band the table left at the foot of plane faces larger than this share of the touched area is
+#: swept (when sweeps are on) even when the scan could end without it.
+_BAND_WORTH = 0.01
 
 
 class FrontierLeft:
@@ -210,7 +213,19 @@ class FrontierLeft:
                 "untouched_near_table_m2": self.below_m2, "untouched_in_valleys_m2": self.valley_m2,
                 "untouched_beyond_reach_m2": self.beyond_reach_m2, "untouched_at_hole_rims_m2": self.hole_rim_m2,
                 "estimated_coverage": self.coverage,
-                "near_table": self.face_left()}
+                "near_table": self.face_left(), "sweep_due": self.sweep_due()}
+
+    def band_worth_sweeping(self) -> bool:
+        """Whether the band the table left at the foot of plane faces is over 1 % of the touched
+        area: worth a border sweep even when the scan could end without it."""
+        return self.map is not None and self.below_m2 > _BAND_WORTH * self.map.touched_area()
+
+    def sweep_due(self) -> bool:
+        """Whether a border sweep is due before the scan may end (``sweep_due`` in
+        :meth:`frontier_left`, which ``coverage_stalled`` waits for): the band at the foot is
+        worth sweeping (:meth:`band_worth_sweeping`) and a sweep is left to make, so that with no
+        reachable frontier left the planner would ask for it rather than succeed."""
+        return self.band_worth_sweeping() and self._next_sweep(self.pose[:2, 3]) is not None
 
     def face_left(self) -> str:
         """Where the frontier on plane faces near the table lies (see ``min_coverage``): its
@@ -288,6 +303,17 @@ class FrontierLeft:
         below the frontier the table explains on plane faces, or else of the nearest side of a
         valley (with ``open_rims`` False, not of the band along a hole found open), not swept
         before; None when there is none (or sweeps are off)."""
+        run = self._next_sweep(point[:2], open_rims, take=True)
+        if run is None:
+            return None
+        job = {"sweep": run, "foot_z": self.table_z_m + self.foot_height_m, "top_z": float(np.nanmax(self.map.z_max)),
+               "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
+        write(self.reapproach_key, job)
+        return job
+
+    def _next_sweep(self, from_xy: np.ndarray, open_rims: bool = True, take: bool = False) -> dict | None:
+        """The border sweep :meth:`_sweep` would make from ``from_xy`` (world, m), counted as made
+        with ``take``; None when there is none (or sweeps are off)."""
         if not self.reapproach_key or not self.max_sweeps or self.map is None:
             return None
         if self.sweeps is None:
@@ -296,18 +322,13 @@ class FrontierLeft:
         foot_z = self.table_z_m + self.foot_height_m
         run = None
         if self.below_m2 > 0 and math.isfinite(foot_z):
-            run = self.sweeps.choose(foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z), point[:2])
+            run = self.sweeps.choose(foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z), from_xy, take)
         if run is None:  # every hole in the touched area up to twice the pad across, whether an attempt has
             # failed at its rim or not: a flat pad bridges the narrower, and the sides of the wider may be
             # too steep or too curved for it (the inside of a ring)
             holes = self.map.valleys(_SWEPT_HOLES * min(self.pad.size_m), open_rims=open_rims)
-            run = self.sweeps.choose(valley_sides(self.map, holes), point[:2])
-        if run is None:
-            return None
-        job = {"sweep": run, "foot_z": foot_z, "top_z": float(np.nanmax(self.map.z_max)),
-               "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
-        write(self.reapproach_key, job)
-        return job
+            run = self.sweeps.choose(valley_sides(self.map, holes), from_xy, take)
+        return run
 
     def _probe_hole(self, point: np.ndarray, wide: bool = False, enclosed: bool = False) -> dict | None:
         """Write a probe of the nearest valley not probed before (or probed and touched, and

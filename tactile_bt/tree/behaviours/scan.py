@@ -5,7 +5,8 @@ the condition that ends a whole scan.
 ``twist_key``) to add: the world direction of the stripe, projected onto the pad's tangent plane
 and expressed in the sensor frame, so stripes stay straight in the world however the pad rolls
 or turns. ``coverage_stalled`` succeeds when the contact cloud has stopped growing (or fails,
-when a frontier planner has left frontier it cannot explain). The end of a stripe is told by
+when a frontier planner has left frontier it cannot explain; it waits while the planner has a
+border sweep due). The end of a stripe is told by
 the condition leaves of :mod:`tactile_bt.tree.behaviours.surface_end`. All of them read the
 mission clock, never wall time.
 
@@ -97,7 +98,10 @@ class CoverageStalled(TactileBehaviour):
                              doc="Blackboard key of a frontier planner's frontier left (``frontier_guidance`` writes "
                                  "``/scan/frontier_left``: lengths in m by reason, ``explained`` and ``unexplained``). "
                                  "With it, a stalled coverage that leaves more than ``max_unexplained_m`` of the "
-                                 "frontier unexplained is a FAILURE that names it, not a SUCCESS. Empty: no such test.")
+                                 "frontier unexplained is a FAILURE that names it, not a SUCCESS; and while the "
+                                 "planner has a border sweep due before the scan may end (``sweep_due``: the band the "
+                                 "table left at the foot of plane faces is worth sweeping), the leaf stays RUNNING "
+                                 "instead of succeeding. Empty: no such test.")
     max_unexplained_m = Parameter(0.01, bound=NON_NEGATIVE, doc="See ``frontier_key`` (m).")
     min_coverage = Parameter(0.0, bound=between(0, 1), unit=None,
                              doc="With ``frontier_key``, a stalled coverage whose planner estimates a lower "
@@ -135,12 +139,15 @@ class CoverageStalled(TactileBehaviour):
                 stalled = f"coverage stalled: {grown} new samples in {self.window_s:g} s ({size} in all)"
                 left = read_or(self.frontier_key) if self.frontier_key else None
                 if left is not None:
-                    from_frontier = describe_left(left)
                     if (sum(left.get("unexplained", {}).values()) > self.max_unexplained_m
                             or left.get("estimated_coverage", 1.0) < self.min_coverage):
-                        self.feedback_message = f"{stalled}, with {from_frontier}"
+                        self.feedback_message = f"{stalled}, with {describe_left(left)}"
                         return Status.FAILURE
-                    stalled = f"{stalled}; frontier left: {from_frontier}"
+                    if left.get("sweep_due"):  # the planner sweeps the foot before it would end the scan
+                        self.feedback_message = f"{stalled}, but a border sweep is due first"
+                        self._size = size
+                        return Status.RUNNING
+                    stalled = f"{stalled}; frontier left: {describe_left(left)}"
                 self.feedback_message = stalled
                 return Status.SUCCESS
         self._size = size
