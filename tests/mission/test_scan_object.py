@@ -826,9 +826,10 @@ def test_what_a_far_probe_found_is_taken_in_after_a_return_to_the_surface_that_f
 
 
 def test_frontier_tried_before_is_not_far_probed_while_the_estimate_falls_short(monkeypatch):
-    from tactile_bt.tree.behaviours import frontier_left
+    from tactile_bt.tree.behaviours import frontier_jobs, frontier_left
 
-    monkeypatch.setattr(frontier_left, "untouched_beyond", lambda *a, **k: 1e-3)  # 10 cm² taken to lie beyond
+    for module in (frontier_left, frontier_jobs):  # 10 cm² taken to lie beyond
+        monkeypatch.setattr(module, "untouched_beyond", lambda *a, **k: 1e-3)
     leaf, h, job, status = _re_approached_and_stalled_again()
     assert leaf.coverage < 0.95
     assert status == Status.FAILURE and leaf.feedback_message.startswith("no reachable frontier left, but"), \
@@ -1000,9 +1001,10 @@ def test_a_contact_lost_while_the_arm_holds_a_joint_at_its_limit_is_out_of_reach
 
 
 def test_when_the_coverage_falls_short_the_frontier_a_wound_wrist_stopped_is_re_approached(monkeypatch):
-    from tactile_bt.tree.behaviours import frontier_left
+    from tactile_bt.tree.behaviours import frontier_jobs, frontier_left
 
-    monkeypatch.setattr(frontier_left, "untouched_beyond", lambda *a, **k: 1e-3)  # 10 cm² taken to lie beyond
+    for module in (frontier_left, frontier_jobs):  # 10 cm² taken to lie beyond
+        monkeypatch.setattr(module, "untouched_beyond", lambda *a, **k: 1e-3)
     leaf, h = planner_harness(disc(0.02), (0.0, 0.0), reapproach_key="/scan/reapproach", min_coverage=0.95)
     assert h.tick(make_features()) == Status.RUNNING
     for angle in np.linspace(0.0, 2 * math.pi, 16, endpoint=False):  # the wrist stopped every way out

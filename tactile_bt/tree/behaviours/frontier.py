@@ -42,8 +42,9 @@ the sides of a hollow in the touched area the same way. It knows nothing of the
 object's size, pose or shape beyond what the pad has touched.
 
 The ends of attempts, the blocks and the backing off are the mixin of
-:mod:`tactile_bt.tree.behaviours.frontier_ends`; the frontier left, the re-approaches and the
-sweeps that of :mod:`tactile_bt.tree.behaviours.frontier_left`.
+:mod:`tactile_bt.tree.behaviours.frontier_ends`; the frontier left and the estimated coverage that
+of :mod:`tactile_bt.tree.behaviours.frontier_left`; the re-approaches, sweeps and probes that of
+:mod:`tactile_bt.tree.behaviours.frontier_jobs`.
 
 Layer: tree.
 """
@@ -61,7 +62,8 @@ from tactile_bt.contacts.reapproach_plan import ReapproachPlan
 from tactile_bt.control.spatial import pad_point
 from tactile_bt.tree.behaviours.base import TactileBehaviour
 from tactile_bt.tree.behaviours.frontier_ends import FrontierEnds
-from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY, FrontierLeft
+from tactile_bt.tree.behaviours.frontier_jobs import FrontierJobs
+from tactile_bt.tree.behaviours.frontier_left import FRONTIER_LEFT_KEY
 from tactile_bt.tree.behaviours.scan import tangent_guidance
 from tactile_bt.tree.behaviours.surface_end import ATTEMPT_END_KEY, ATTEMPT_KEY
 from tactile_bt.tree.behaviours.table import TABLE_Z_KEY, table_height
@@ -83,7 +85,7 @@ _BORDER_STOP_M = 0.004
 _SLOWEST = 0.1
 
 
-class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
+class FrontierGuidance(FrontierEnds, FrontierJobs, TactileBehaviour):
     """Slide towards the nearest reachable frontier of the touched surface; SUCCESS when none is
     left (see the module docstring). Writes the guidance twist (sensor frame, m/s) to ``key``
     every tick, zero while it chooses or out of contact; put it in parallel with
@@ -169,7 +171,7 @@ class FrontierGuidance(FrontierEnds, FrontierLeft, TactileBehaviour):
         self.face_z = np.zeros(0)
         #: The re-approaches of the map (see :mod:`tactile_bt.contacts.reapproach_plan`).
         self.plan = ReapproachPlan(self.probe_beyond_m, self.probe_beyond_m)
-        self._probed = []  # the valleys probed with the pad's corner (see FrontierLeft._probed)
+        self._probed = []  # the valleys probed with the pad's corner (see FrontierJobs._probed)
         self._state = "waiting for contact"
         self._reset_motion()
 
