@@ -4,16 +4,22 @@ over ROS 2 on this host and the emulated sensor on a pty, with the faults a real
 The twin runs in real time, and a machine busy with other work can hold it or the mission back
 for longer than the twin runs a twist unsupervised: the cable-following test then runs again
 (:func:`starved_for` reads the stalls from the run's own records), and is skipped, naming the
-stalls, when the machine starves every run."""
+stalls, when the machine starves every run. The tests that stop a running mission wait for its
+progress line to report mission time, however long the machine took to start it, and are
+skipped, naming the stall, when the supervisor ended the mission on a silent sensor or a stale
+pose before then."""
 
 from __future__ import annotations
 
 import contextlib
 import json
 import os
+import queue
+import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -131,18 +137,46 @@ def test_live_against_the_twin_follows_the_whole_cable(tmp_path, request):
     pytest.skip(f"this machine held the real-time loop back on every run: {'; '.join(stalls)}")
 
 
-def _wait_for_commands(twin_out: Path, proc: subprocess.Popen, seconds: float) -> None:
-    time.sleep(seconds)
-    assert proc.poll() is None, proc.stderr.read()
+def _wait_until_running(proc: subprocess.Popen, least_s: float, timeout_s: float = 180.0) -> threading.Thread:
+    """Read the live command's stderr until its progress line reports at least ``least_s`` of
+    mission time: its loop has run that long (its SIGTERM handler set, the arm commanded),
+    however long a machine busy with other work took to start it. Returns the thread that goes
+    on draining stderr, so that the command never blocks on it."""
+    lines: queue.Queue = queue.Queue()
+
+    def drain():
+        for line in proc.stderr:
+            lines.put(line)
+        lines.put(None)
+
+    reader = threading.Thread(target=drain, daemon=True)
+    reader.start()
+    deadline, seen = time.monotonic() + timeout_s, []
+    while True:
+        try:
+            line = lines.get(timeout=max(deadline - time.monotonic(), 0.01))
+        except queue.Empty:
+            pytest.fail(f"no {least_s:g} s of mission time within {timeout_s:g} s: {''.join(seen)[-2000:]}")
+        if line is None:  # the command ended before its loop ran that long
+            proc.wait(timeout=30)
+            said = proc.stdout.read() + "".join(seen)
+            if "sensor silent" in said or "stale robot pose" in said:  # the machine held frames or poses back
+                pytest.skip(f"this machine held the real-time loop back before {least_s:g} s: {said[-500:]}")
+            pytest.fail(f"the command ended before its loop ran {least_s:g} s: {said[-2000:]}")
+        seen.append(line)
+        running = re.match(r"mission time: ([\d.]+)/", line)
+        if running and float(running.group(1)) >= least_s:
+            return reader
 
 
 def test_sigterm_stops_the_robot_and_writes_the_outputs(tmp_path, request):
     domain = _domain(request)
     with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
         proc = live(CABLE_TREE, port, relaxed(robot), tmp_path / "live", domain=domain)
-        _wait_for_commands(tmp_path / "twin", proc, 6.0)  # started (a few s) and running
+        reader = _wait_until_running(proc, 0.5)  # started and running (125 cycles)
         proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=30)
+        proc.wait(timeout=30)
+        reader.join(timeout=5)
         assert proc.returncode != 0
         time.sleep(0.3)
     report = json.loads((tmp_path / "live" / "report.json").read_text())
@@ -156,9 +190,10 @@ def test_the_twin_holds_within_100_ms_when_live_is_killed(tmp_path, request):
     domain = _domain(request)
     with twin("sim/cable.yaml", tmp_path / "twin", domain=domain) as (port, robot, _):
         proc = live(CABLE_TREE, port, relaxed(robot), tmp_path / "live", domain=domain)
-        _wait_for_commands(tmp_path / "twin", proc, 9.0)  # following the cable at 20 mm/s by now
+        reader = _wait_until_running(proc, 6.0)  # following the cable at 20 mm/s by now
         proc.kill()
         proc.wait()
+        reader.join(timeout=5)
         time.sleep(1.0)
     recorded = np.load(tmp_path / "twin" / "twin.npz")
     last = recorded["command_time_s"][-1]
