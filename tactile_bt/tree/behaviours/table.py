@@ -184,12 +184,16 @@ class TableClearance(TactileBehaviour):
         corner = lowest_corner(self.pose, self.pad, self.margin_m)
         self.clearance_m = clearance = float(corner[2] - self.table_z_m)
         if self.brake_s > 0:
+            # the corners (sensor frame) and their heights (m, world z), once for the whole tick
+            corners = pad_corners(self.pad, self.margin_m)
+            pose = self.pose
+            heights = corners @ pose[2, :3] + pose[2, 3]
             watching = self.sink_tau_s > 0
             if watching:
-                self._watch_sink()
-            self._brake()
+                self._watch_sink(heights)
+            self._brake(corners, heights)
             if watching:
-                self._expect()
+                self._expect(corners, heights)
         if clearance >= self.min_clearance_m:
             self._tripped_at = None
             self._setup.set(self.alarm_key, None)
@@ -227,28 +231,24 @@ class TableClearance(TactileBehaviour):
         #: have moved them by, and the time (s); None before the first braking tick.
         self._expected: tuple[np.ndarray, np.ndarray, float] | None = None
 
-    def _corner_heights(self) -> np.ndarray:
-        """The heights (m, world z) of the pad's four corners (:func:`pad_corners`)."""
-        pose = self.pose
-        return pad_corners(self.pad, self.margin_m) @ pose[2, :3] + pose[2, 3]
-
-    def _corner_rates(self, twist: np.ndarray) -> tuple[float, np.ndarray]:
-        """How fast ``twist`` (sensor frame) moves the corners along the world's z (m/s): the
-        translation's share, the same for every corner, and the turn's, one per corner."""
+    def _corner_rates(self, twist: np.ndarray, corners: np.ndarray) -> tuple[float, np.ndarray]:
+        """How fast ``twist`` (sensor frame) moves the ``corners`` (:func:`pad_corners`) along the
+        world's z (m/s): the translation's share, the same for every corner, and the turn's, one
+        per corner."""
         up = self.pose[2, :3]  # the world's z in the sensor frame
-        return float(twist[:3] @ up), np.cross(twist[3:], pad_corners(self.pad, self.margin_m)) @ up
+        return float(twist[:3] @ up), np.cross(twist[3:], corners) @ up
 
-    def _watch_sink(self) -> None:
-        """Update :attr:`sink_mps` from how far the corners came since the last tick against
-        where its twist should have taken them."""
+    def _watch_sink(self, heights: np.ndarray) -> None:
+        """Update :attr:`sink_mps` from how far the corners came since the last tick (to
+        ``heights``, m, world z) against where its twist should have taken them."""
         if self._expected is None:
             return
-        heights, rates, then = self._expected
+        before, rates, then = self._expected
         dt = self.now - then
         if not 0.0 < dt <= max(10.0 * self.sink_tau_s, 0.05):  # not the last tick's successor: start again
             self._reset_sink()
             return
-        actual = (self._corner_heights() - heights) / dt
+        actual = (heights - before) / dt
         # a corner that did not come down did not sink, whatever the twist asked: a lift that a
         # loaded contact holds back is no sinking
         beyond = np.where(actual < 0.0, actual - rates, np.maximum(actual - rates, 0.0))
@@ -256,16 +256,16 @@ class TableClearance(TactileBehaviour):
         # the tree ticks moves by nothing, then by twice the twist, and must not leave a bias
         self._beyond_mps += dt / (self.sink_tau_s + dt) * (beyond - self._beyond_mps)
 
-    def _expect(self) -> None:
-        """Remember the corners' heights and the rates the cycle's twist (as the limits send
-        it) moves them by, for :meth:`_watch_sink` at the next tick."""
-        a, b = self._corner_rates(self.command.twist())
-        self._expected = (self._corner_heights(), a + b, self.now)
+    def _expect(self, corners: np.ndarray, heights: np.ndarray) -> None:
+        """Remember the corners' ``heights`` and the rates the cycle's twist (as the limits send
+        it) moves the ``corners`` by, for :meth:`_watch_sink` at the next tick."""
+        a, b = self._corner_rates(self.command.twist(), corners)
+        self._expected = (heights, a + b, self.now)
 
-    def _brake(self) -> None:
+    def _brake(self, corners: np.ndarray, heights: np.ndarray) -> None:
         """Slow the cycle's turn down, and lift the pad if its translation alone would still
         do it, so that no corner comes below the brake's floor within ``brake_s`` (see the
-        class docstring)."""
+        class docstring); ``corners`` (:func:`pad_corners`) at ``heights`` (m, world z)."""
         command = self.command
         # the sum as the twist limits will send it: a brake reckoned on the sum before them
         # would see its lift scaled down with the slide when the slide is at the limit
@@ -273,9 +273,9 @@ class TableClearance(TactileBehaviour):
         v, w = twist[:3], twist[3:]
         up = self.pose[2, :3]  # the world's z in the sensor frame
         # the rate each corner may come down at, less what it sinks by beyond the twist
-        floor_rate = -(np.maximum(self._corner_heights() - self.table_z_m
+        floor_rate = -(np.maximum(heights - self.table_z_m
                                   - (self.min_clearance_m + self.brake_margin_m), 0.0)) / self.brake_s - self.sink_mps
-        a, b = self._corner_rates(twist)  # m/s of every corner, world z: the translation's, the turn's
+        a, b = self._corner_rates(twist, corners)  # m/s of every corner, world z: the translation's, the turn's
         short = floor_rate - (a + b)
         self.braked = bool((short > 0.0).any())
         if not self.braked:
