@@ -9,7 +9,9 @@ spreads such points over each valley (its middle, and a ring 6 mm inside its edg
 :func:`corner_first` finds the tilted pose that lowers the corner furthest at a point without
 any part of the pad coming near the touched surface. By the edge, a corner that cannot get near
 the table may still tell the wall under the rim: :func:`below_rim_z` is how low it must come for
-that wall to be steeper than the pad may tilt. Pure geometry: no time, no robot, no tree.
+that wall to be steeper than the pad may tilt, and :func:`steep_rim_cells` which cells of the
+band a probe leaves along an open hole's rim the corners that came that low show to hold no
+surface within the pad's tilt. Pure geometry: no time, no robot, no tree.
 
 Layer: contacts.
 """
@@ -24,7 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.contacts.frontier_map import HOLE_RIM_M
 
-__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "below_rim_z"]
+__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "below_rim_z", "steep_rim_cells"]
 
 #: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
 _YAWS = np.radians(np.arange(0.0, 360.0, 15.0))
@@ -154,3 +156,34 @@ def below_rim_z(m, xy: np.ndarray, inside_m: float, max_tilt_rad: float) -> floa
     if not len(z):
         return -math.inf
     return float(np.max(z)) - inside_m * math.tan(max_tilt_rad)
+
+
+def steep_rim_cells(m, points_xy: np.ndarray, reached_z: np.ndarray, max_tilt_rad: float, along_m: float,
+                    near_m: float = 0.03) -> np.ndarray:
+    """World xy (m, ``(k, 2)``) of the cells of the band along the rims of open holes (the map
+    ``m``'s :meth:`~tactile_bt.contacts.frontier_map.FrontierMap.hole_rims`) that the corner of
+    a probe shows to hold no surface the pad could lie on: those within ``along_m`` (m) of a
+    point (``points_xy``, world, m) where the corner came down to ``reached_z`` (world z, m)
+    touching nothing, at or below :func:`below_rim_z` for the point's distance from the touched
+    area. The wall under the rim there falls away, on average between the rim and the point,
+    steeper than ``max_tilt_rad`` (rad): along the rim it is taken to do so as far as
+    ``along_m``. Points farther than ``near_m`` (m) from every touched cell show nothing."""
+    rims = m.hole_rims()
+    if not rims.any():
+        return np.zeros((0, 2))
+    touched = m.touched
+    shown = []
+    for xy, z in zip(np.asarray(points_xy, dtype=float).reshape(-1, 2), np.asarray(reached_z, dtype=float)):
+        rr, cc = m.disc(xy, near_m)
+        hit = touched[rr, cc]
+        if not np.any(hit):
+            continue
+        inside = float(np.min(np.linalg.norm(m.centre_of(rr[hit], cc[hit]) - xy, axis=1)))
+        if z <= below_rim_z(m, xy, inside, max_tilt_rad):
+            shown.append(xy)
+    if not shown:
+        return np.zeros((0, 2))
+    rows, cols = np.nonzero(rims)
+    cells = m.centre_of(rows, cols)
+    gap = np.min(np.linalg.norm(cells[:, None, :] - np.asarray(shown)[None, :, :], axis=2), axis=1)
+    return cells[gap <= along_m]

@@ -11,7 +11,8 @@ import pytest
 from tactile_bt.contacts.frontier_map import FrontierMap
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, least_turn, pad_rotation, probe_points
+from tactile_bt.contacts.hole_probe import (below_rim_z, corner_first, least_turn, pad_rotation, probe_points,
+                                           steep_rim_cells)
 
 PAD = (0.08, 0.08)
 
@@ -136,3 +137,32 @@ def test_a_corner_lowered_by_the_rim_to_the_height_that_tells_its_wall_touches_o
         surface_z = 0.025 + math.sqrt(tube**2 - off**2) if abs(off) < tube else -math.inf
         assert (surface_z > z) == wall                                  # touched before it: a wall within the tilt
     assert below_rim_z(m, np.zeros(2), 0.006, tilt) == -math.inf        # nothing touched near the middle
+
+
+def test_a_corner_that_came_below_the_wall_at_the_tilt_limit_clears_the_rim_band_along_the_rim_near_it():
+    # the shipped torus's hole found open: the band along its rim stays counted, but where a
+    # corner lowered by the rim came below where a wall at the tilt limit would stand, the rim
+    # falls away steeper than the pad may lie there, and that part of the band holds nothing
+    m, _ = ring_map(np.random.default_rng(6))
+    tilt, along = math.radians(70), 0.02
+    v = probe_points(m, m.valleys(min(PAD)), most=5)[0]
+    m.mark_empty(v["cells"], opened=True)
+    band = m.hole_rims()
+    band_xy = m.centre_of(*np.nonzero(band))
+    assert band.sum() * m.cell_m**2 > 1e-4                               # a band of more than 1 cm² left
+    rim = v["points"][1:]
+    low = np.array([corner_first(m, xy, PAD, tilt, 0.002, 0.003)[1] for xy in rim])
+    high = np.array([below_rim_z(m, xy, v["inside_m"], tilt) + 0.002 for xy in rim])
+    assert np.all(low < high - 0.002)
+    reached = np.concatenate((low[:1], high[1:]))                        # only the first came low enough
+    cells = steep_rim_cells(m, rim, reached, tilt, along)
+    near = np.linalg.norm(band_xy - rim[0], axis=1) <= along
+    assert len(cells) == near.sum() > 0                                  # the band near it, and only there
+    assert np.all(np.linalg.norm(cells - rim[0], axis=1) <= along)
+    assert band[tuple(m.cell_of(cells).T)].all()
+    assert len(steep_rim_cells(m, rim, high, tilt, along)) == 0          # none came low enough: none
+    assert len(steep_rim_cells(m, v["points"][:1], [-1.0], tilt, 0.2)) == 0  # the middle: far from the rim
+    m.mark_empty(steep_rim_cells(m, rim, low, tilt, 0.5 * min(PAD)), opened=True)
+    left = m.centre_of(*np.nonzero(m.hole_rims()))                       # every point low: all the band near them
+    assert len(left) < 0.1 * len(band_xy)
+    assert np.all(np.min(np.linalg.norm(left[:, None] - rim[None], axis=-1), axis=1) > 0.5 * min(PAD))

@@ -921,6 +921,28 @@ def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_ope
     assert leaf.sweeps is None or not leaf.sweeps.swept
 
 
+@pytest.mark.parametrize("corner_mm, cleared", [(3.0, True), (18.0, False)])
+def test_the_band_along_an_open_hole_s_rim_leaves_the_estimate_where_the_corner_came_below_a_wall_at_the_tilt_limit(
+        corner_mm, cleared):
+    # the same ring, 30 mm above the table, its hole found open: where the corner, 6 mm inside the
+    # rim, came down to 3 mm above the table touching nothing, the rim falls away steeper than
+    # the pad may tilt (more than 16.5 mm over those 6 mm), and the band along it holds nothing
+    # the pad could lie on; a corner that stopped 18 mm up shows only that the hole is open
+    leaf, h, _, _ = _stalled_ring(0.045, max_hole_probes=2, max_sweeps=1)
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
+    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
+    job.update(result="open", outcomes=["open"] * len(job["hole"]["probes"]),
+               reached=[corner_mm * 1e-3] * len(job["hole"]["probes"]))
+    leaf.initialise()
+    _, status = ticks_until_done(h, 10)
+    assert status == Status.SUCCESS, leaf.feedback_message
+    band = leaf.frontier_left()["untouched_at_hole_rims_m2"]
+    whole = 2 * math.pi * 0.043 * 0.004  # a 4 mm band round the rim
+    assert (band < 0.1 * whole) if cleared else (band > 0.5 * whole), band / whole
+    assert leaf.ends["hole probe: open"] == 1
+
+
 @pytest.mark.parametrize("probes", [2, 0])
 def test_a_valley_the_touched_area_encloses_is_probed_before_its_sides_are_swept(probes):
     # the ring's hole 60 mm across, narrower than the pad, which bridges it: the estimate counts

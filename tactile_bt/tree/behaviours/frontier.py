@@ -370,8 +370,10 @@ class FrontierGuidance(FrontierEnds, FrontierJobs, TactileBehaviour):
                     if self.coverage < self.min_coverage and self.unexplained_m() <= self.max_unexplained_m:
                         untouched = self.untouched_where()
                         # a valley the touched area encloses is probed first: found open (a ring's
-                        # hole), it leaves the estimate but for the 4 mm band along its rim, and the
-                        # sides are swept only while that band keeps the scan from its coverage
+                        # hole), it leaves the estimate but for the 4 mm band along its rim (less
+                        # where the corner showed the rim falling away steeper than the pad may
+                        # lie), and the sides are swept only while that band keeps the scan from
+                        # its coverage
                         # (taken on trust: see docs/scanning.md); then the sides of valleys (a
                         # channel's, one found touched), then probes of the others, then what lies
                         # beyond the wrist's stops: turned back, the pad may reach on there

@@ -24,7 +24,7 @@ from scipy import ndimage
 
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, WRIST, parts_touching, unexplained
-from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points
+from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points, steep_rim_cells
 from tactile_bt.contacts.sweep_plan import END_INSIDE_M, SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import untouched_beyond
 from tactile_bt.tree.behaviours.frontier_left import FrontierLeft
@@ -97,7 +97,10 @@ class FrontierJobs(FrontierLeft):
                              doc="A valley whose probes lowered the pad's corner to within this height (m) of the "
                                  "table touching nothing, at its middle and at points 6 mm inside its edge, is a "
                                  "hole (the table seen through a ring): its cells farther than 4 mm from its edge "
-                                 "are marked empty and leave the estimate; the band along its rim stays counted. A "
+                                 "are marked empty and leave the estimate; the band along its rim stays counted, but "
+                                 "within half the pad's width (along the rim) of a point where the corner came below "
+                                 "where the wall under the rim would stand at the tilt limit (as below): the rim falls "
+                                 "away steeper than the pad may lie there. A "
                                  "floor lower than this in a hollow narrower than the pad is taken for the table. "
                                  "Where no pose gets the corner this low at a point by the edge of a valley "
                                  "narrower than the pad, the point is probed where it is if the corner gets below "
@@ -302,6 +305,14 @@ class FrontierJobs(FrontierLeft):
                     probed["result"] = job["result"]
             if job["result"] == "open":  # the table seen through it: no surface to scan there
                 self.map.mark_empty(job["hole"]["cells"], opened=True)
+                # and where a corner came below the wall at the tilt limit by the rim, nothing the pad
+                # could lie on under it: taken so along the rim as far as the pad spans (its half-width)
+                shown = [(probe[0], z) for probe, z, outcome in zip(job["hole"]["probes"], job.get("reached", ()),
+                                                                  job.get("outcomes", ())) if outcome == "open"]
+                if shown:
+                    xy, z = np.array([p for p, _ in shown]), np.array([z for _, z in shown])
+                    self.map.mark_empty(steep_rim_cells(self.map, xy, z, self.max_tilt_rad,
+                                                        0.5 * min(self.pad.size_m)), opened=True)
             self.ends[f"hole probe: {job['result']}"] += 1
             return
         if "sweep" in job:
