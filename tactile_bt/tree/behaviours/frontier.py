@@ -373,10 +373,9 @@ class FrontierGuidance(FrontierEnds, FrontierJobs, TactileBehaviour):
                         # hole), it leaves the estimate but for the 4 mm band along its rim (less
                         # where the corner showed the rim falling away steeper than the pad may
                         # lie), and the sides are swept only while that band keeps the scan from
-                        # its coverage
-                        # (taken on trust: see docs/scanning.md); then the sides of valleys (a
-                        # channel's, one found touched), then probes of the others, then what lies
-                        # beyond the wrist's stops: turned back, the pad may reach on there
+                        # its coverage (taken on trust: see docs/scanning.md); then the sides of
+                        # valleys (a channel's, one found touched), then probes of the others, then
+                        # what lies beyond the wrist's stops: turned back, the pad may reach on there
                         if self._asked_probe(point, f"{untouched}) ({counts})", enclosed=True) \
                                 or self._asked_sweep(point, f"{untouched}) ({counts})") \
                                 or self._asked_probe(point, f"{untouched}) ({counts})") \

@@ -307,12 +307,12 @@ class FrontierJobs(FrontierLeft):
                 self.map.mark_empty(job["hole"]["cells"], opened=True)
                 # and where a corner came below the wall at the tilt limit by the rim, nothing the pad
                 # could lie on under it: taken so along the rim as far as the pad spans (its half-width)
-                shown = [(probe[0], z) for probe, z, outcome in zip(job["hole"]["probes"], job.get("reached", ()),
-                                                                  job.get("outcomes", ())) if outcome == "open"]
-                if shown:
-                    xy, z = np.array([p for p, _ in shown]), np.array([z for _, z in shown])
-                    self.map.mark_empty(steep_rim_cells(self.map, xy, z, self.max_tilt_rad,
-                                                        0.5 * min(self.pad.size_m)), opened=True)
+                opened = [k for k, outcome in enumerate(job.get("outcomes", ())) if outcome == "open"]
+                if opened:
+                    xy = np.array([job["hole"]["probes"][k][0] for k in opened])
+                    z = np.array([job["reached"][k] for k in opened])
+                    self.map.mark_empty(steep_rim_cells(self.map, xy, z, self.max_tilt_rad, 0.5 * min(self.pad.size_m)),
+                                        opened=True)
             self.ends[f"hole probe: {job['result']}"] += 1
             return
         if "sweep" in job:
