@@ -167,7 +167,10 @@ def steep_rim_cells(m, points_xy: np.ndarray, reached_z: np.ndarray, max_tilt_ra
     touching nothing, at or below :func:`below_rim_z` for the point's distance from the touched
     area. The wall under the rim there falls away, on average between the rim and the point,
     steeper than ``max_tilt_rad`` (rad): along the rim it is taken to do so as far as
-    ``along_m``. Points farther than ``near_m`` (m) from every touched cell show nothing."""
+    ``along_m``. The cells next to the touched area (an 8-neighbour apart) are not among them: a
+    rounded rim steepens gradually, and just beyond the touched edge it may still lie within the
+    pad's tilt where on average it falls away steeper. Points farther than ``near_m`` (m) from
+    every touched cell show nothing."""
     rims = m.hole_rims()
     if not rims.any():
         return np.zeros((0, 2))
@@ -183,7 +186,7 @@ def steep_rim_cells(m, points_xy: np.ndarray, reached_z: np.ndarray, max_tilt_ra
             shown.append(xy)
     if not shown:
         return np.zeros((0, 2))
-    rows, cols = np.nonzero(rims)
+    rows, cols = np.nonzero(rims & ~ndimage.binary_dilation(touched, structure=np.ones((3, 3), dtype=bool)))
     cells = m.centre_of(rows, cols)
     gap = np.min(np.linalg.norm(cells[:, None, :] - np.asarray(shown)[None, :, :], axis=2), axis=1)
     return cells[gap <= along_m]

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import numpy.testing as npt
 import pytest
+from scipy import ndimage
 
 from tactile_bt.contacts.frontier_map import FrontierMap
 from scipy.spatial.transform import Rotation
@@ -143,6 +144,7 @@ def test_a_corner_that_came_below_the_wall_at_the_tilt_limit_clears_the_rim_band
     # the shipped torus's hole found open: the band along its rim stays counted, but where a
     # corner lowered by the rim came below where a wall at the tilt limit would stand, the rim
     # falls away steeper than the pad may lie there, and that part of the band holds nothing
+    # but for the cells next to the touched edge, where a rounded rim may still lie within the tilt
     m, _ = ring_map(np.random.default_rng(6))
     tilt, along = math.radians(70), 0.02
     v = probe_points(m, m.valleys(min(PAD)), most=5)[0]
@@ -156,13 +158,15 @@ def test_a_corner_that_came_below_the_wall_at_the_tilt_limit_clears_the_rim_band
     assert np.all(low < high - 0.002)
     reached = np.concatenate((low[:1], high[1:]))                        # only the first came low enough
     cells = steep_rim_cells(m, rim, reached, tilt, along)
-    near = np.linalg.norm(band_xy - rim[0], axis=1) <= along
+    edge = ndimage.binary_dilation(m.touched, structure=np.ones((3, 3), dtype=bool))[np.nonzero(band)]
+    near = (np.linalg.norm(band_xy - rim[0], axis=1) <= along) & ~edge
     assert len(cells) == near.sum() > 0                                  # the band near it, and only there
     assert np.all(np.linalg.norm(cells - rim[0], axis=1) <= along)
     assert band[tuple(m.cell_of(cells).T)].all()
     assert len(steep_rim_cells(m, rim, high, tilt, along)) == 0          # none came low enough: none
     assert len(steep_rim_cells(m, v["points"][:1], [-1.0], tilt, 0.2)) == 0  # the middle: far from the rim
     m.mark_empty(steep_rim_cells(m, rim, low, tilt, 0.5 * min(PAD)), opened=True)
-    left = m.centre_of(*np.nonzero(m.hole_rims()))                       # every point low: all the band near them
-    assert len(left) < 0.1 * len(band_xy)
-    assert np.all(np.min(np.linalg.norm(left[:, None] - rim[None], axis=-1), axis=1) > 0.5 * min(PAD))
+    left = m.hole_rims()                                                 # every point low: all the band near them
+    far = np.min(np.linalg.norm(m.centre_of(*np.nonzero(left))[:, None] - rim[None], axis=-1), axis=1) > 0.5 * min(PAD)
+    assert np.all(far | ndimage.binary_dilation(m.touched, structure=np.ones((3, 3), dtype=bool))[np.nonzero(left)])
+    assert left.sum() < 0.8 * len(band_xy)

@@ -927,7 +927,9 @@ def test_the_band_along_an_open_hole_s_rim_leaves_the_estimate_where_the_corner_
     # the same ring, 30 mm above the table, its hole found open: where the corner, 6 mm inside the
     # rim, came down to 3 mm above the table touching nothing, the rim falls away steeper than
     # the pad may tilt (more than 16.5 mm over those 6 mm), and the band along it holds nothing
-    # the pad could lie on; a corner that stopped 18 mm up shows only that the hole is open
+    # the pad could lie on but for the row of cells next to the touched edge (a rounded rim may
+    # still lie within the tilt there); a corner that stopped 18 mm up shows only that the hole
+    # is open
     leaf, h, _, _ = _stalled_ring(0.045, max_hole_probes=2, max_sweeps=1)
     _, status = ticks_until_done(h, 10)
     assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
@@ -939,7 +941,7 @@ def test_the_band_along_an_open_hole_s_rim_leaves_the_estimate_where_the_corner_
     assert status == Status.SUCCESS, leaf.feedback_message
     band = leaf.frontier_left()["untouched_at_hole_rims_m2"]
     whole = 2 * math.pi * 0.043 * 0.004  # a 4 mm band round the rim
-    assert (band < 0.1 * whole) if cleared else (band > 0.5 * whole), band / whole
+    assert (0.4 * whole < band < 0.75 * whole) if cleared else (band > 0.85 * whole), band / whole
     assert leaf.ends["hole probe: open"] == 1
 
 

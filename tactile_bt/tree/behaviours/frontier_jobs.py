@@ -100,7 +100,8 @@ class FrontierJobs(FrontierLeft):
                                  "are marked empty and leave the estimate; the band along its rim stays counted, but "
                                  "within half the pad's width (along the rim) of a point where the corner came below "
                                  "where the wall under the rim would stand at the tilt limit (as below): the rim falls "
-                                 "away steeper than the pad may lie there. A "
+                                 "away steeper than the pad may lie there, on average (the cells next to the touched "
+                                 "edge stay counted: a rounded rim steepens gradually). A "
                                  "floor lower than this in a hollow narrower than the pad is taken for the table. "
                                  "Where no pose gets the corner this low at a point by the edge of a valley "
                                  "narrower than the pad, the point is probed where it is if the corner gets below "
@@ -306,7 +307,8 @@ class FrontierJobs(FrontierLeft):
             if job["result"] == "open":  # the table seen through it: no surface to scan there
                 self.map.mark_empty(job["hole"]["cells"], opened=True)
                 # and where a corner came below the wall at the tilt limit by the rim, nothing the pad
-                # could lie on under it: taken so along the rim as far as the pad spans (its half-width)
+                # could lie on under it beyond the cells next to the touched edge: taken so along the
+                # rim as far as the pad spans (its half-width)
                 opened = [k for k, outcome in enumerate(job.get("outcomes", ())) if outcome == "open"]
                 if opened:
                     xy = np.array([job["hole"]["probes"][k][0] for k in opened])
