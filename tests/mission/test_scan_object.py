@@ -117,11 +117,13 @@ class _Twist(TactileBehaviour):
         return Status.RUNNING
 
 
-def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), sink_mps=0.0, may_fail=False, **guard):
+def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), sink_mps=0.0, sink_s=np.inf, may_fail=False,
+                **guard):
     """A leaf adding ``twist`` and, after it, a braking guard; the pad moved by the cycle's twist
     (within the twist ``limits``, m/s and rad/s) each tick, and lowered by ``sink_mps`` (world z)
-    beyond it. Returns the guard, the corner heights and the twists applied; the run ends where
-    the guard fails if ``may_fail`` (a failure is an assertion error otherwise)."""
+    beyond it for the first ``sink_s``. Returns the guard, the corner heights and the twists
+    applied; the run ends where the guard fails if ``may_fail`` (a failure is an assertion error
+    otherwise)."""
     guard = TableClearance(min_clearance_m=0.0005, recover_s=1.0, brake_s=0.2, **guard)
     root = py_trees.composites.Parallel("scan", policy=py_trees.common.ParallelPolicy.SuccessOnOne(),
                                         children=[_Twist(twist), guard])
@@ -130,7 +132,7 @@ def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), sink_mps=0.0
     h.set(TABLE_Z_KEY, 0.0)
     heights, applied = [], []
     T = start
-    for _ in range(int(seconds / DT)):
+    for i in range(int(seconds / DT)):
         status = h.tick(frame=contact_frame())
         if may_fail and status == Status.FAILURE:
             break
@@ -138,7 +140,8 @@ def _braked_run(twist, start, seconds=2.0, limits=(np.inf, np.inf), sink_mps=0.0
         V = h.command.twist()
         applied.append(V)
         T = T @ exp_twist(V, DT)
-        T[2, 3] -= sink_mps * DT
+        if i * DT < sink_s:
+            T[2, 3] -= sink_mps * DT
         h.set_pose(T)
         heights.append(pad_clearance(T, PAD, 0.0))
     return guard, np.array(heights), np.array(applied)
@@ -193,6 +196,28 @@ def test_the_brake_lifts_against_a_sinking_the_twist_does_not_explain():
     assert abs(heights[-1] - heights[-50]) < 1e-4  # held: the lift balances the sinking
     blind, heights, _ = _braked_run((0.0,) * 6, start, seconds=2.0, sink_mps=0.01, may_fail=True)  # off by default
     assert blind.status == Status.FAILURE and "touches the table" in blind.feedback_message
+
+
+def test_a_tripped_guard_lifts_the_pad_until_the_corner_is_back_at_the_brake_s_floor():
+    # the compliant arm sinks the pad at 10 mm/s (world z) for 0.4 s while the twist holds it
+    # still, and the brake, reckoning with the twist alone, does not see it: without the lift the
+    # corner reaches the table and the guard fails
+    start = pose(tilted(20), (0.0, 0.0, 0.0167))  # the lowest corner 3 mm up
+    blind, _, _ = _braked_run((0.0,) * 6, start, seconds=1.0, sink_mps=0.01, sink_s=0.4, may_fail=True)
+    assert blind.status == Status.FAILURE and "touches the table" in blind.feedback_message
+    # with it, the pad rises at 20 mm/s from each trip until the corner is 1.5 mm up, and neither
+    # turns nor slides meanwhile; the corner never reaches the table and the guard goes on
+    guard, heights, applied = _braked_run((0.0,) * 6, start, seconds=1.0, sink_mps=0.01, sink_s=0.4,
+                                          lift_mps=0.02)
+    assert heights.min() > 0.0004 and guard.status == Status.RUNNING and guard.trips == 1
+    lifting = np.isclose(applied[:, :3] @ start[2, :3], 0.02)  # the world's z, in the sensor frame
+    assert_allclose(applied[lifting], np.tile(np.r_[0.02 * start[2, :3], 0.0, 0.0, 0.0], (lifting.sum(), 1)))
+    # the lift from the tick the corner came below 0.5 mm to the tick it was 1.5 mm up again
+    before = np.r_[0.0167 - 0.040 * math.sin(math.radians(20)), heights[:-1]]  # the corner when each twist was made
+    first, last = np.flatnonzero(lifting)[[0, -1]]
+    assert lifting[first:last + 1].all()
+    assert before[first] < 0.0005 <= before[first - 1] and before[last] < 0.0015 <= before[last + 1]
+    assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is None
 
 
 def test_a_lift_that_a_contact_holds_back_is_no_sinking():

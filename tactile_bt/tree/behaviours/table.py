@@ -94,7 +94,9 @@ class TableClearance(TactileBehaviour):
     ``alarm_key`` (None otherwise) and stays RUNNING, and the tree backs off
     (``frontier_guidance`` does). It fails when the corner stays below the limit longer than
     ``recover_s``, when it comes below ``hit_m`` (the pad touches the table), or at the
-    ``max_trips``-th trip.
+    ``max_trips``-th trip. With ``lift_mps`` the guard also lifts the pad itself, along the
+    world's z, from the trip until the corner is ``brake_margin_m`` above the limit again: a
+    compliant arm pressed against an edge sinks on faster than the tree's back-off takes hold.
 
     With ``brake_s > 0`` it also looks ahead: each cycle it takes the twist the leaves ticked
     before it have summed (the guard belongs last in the tree), predicts where the pad's
@@ -130,6 +132,11 @@ class TableClearance(TactileBehaviour):
     hit_m = Parameter(0.0, doc="With recovery, the guard fails at once below this height of the corner (m; at most "
                                "``min_clearance_m``).")
     max_trips = Parameter(0, bound=NON_NEGATIVE, unit=None, doc="With recovery, the guard fails at this trip (0: any number).")
+    lift_mps = Parameter(0.0, bound=NON_NEGATIVE,
+                         doc="With recovery, from the trip until the corner is ``brake_margin_m`` above "
+                             "``min_clearance_m`` again, the cycle's twist is replaced by a lift along the world's z "
+                             "at this speed (m/s; 0: the tree alone backs off, and the trip ends at "
+                             "``min_clearance_m``).")
     brake_s = Parameter(0.0, bound=NON_NEGATIVE,
                         doc="Look-ahead of the brake (s; 0: no brake): the cycle's turn is slowed, and the pad lifted, "
                             "where the twist would bring a corner below ``min_clearance_m + brake_margin_m`` within "
@@ -183,18 +190,29 @@ class TableClearance(TactileBehaviour):
             return Status.RUNNING
         corner = lowest_corner(self.pose, self.pad, self.margin_m)
         self.clearance_m = clearance = float(corner[2] - self.table_z_m)
+        watching = self.brake_s > 0 and self.sink_tau_s > 0
         if self.brake_s > 0:
             # the corners (sensor frame) and their heights (m, world z), once for the whole tick
             corners = pad_corners(self.pad, self.margin_m)
             pose = self.pose
             heights = corners @ pose[2, :3] + pose[2, 3]
-            watching = self.sink_tau_s > 0
             if watching:
                 self._watch_sink(heights)
             self._brake(corners, heights)
-            if watching:
-                self._expect(corners, heights)
-        if clearance >= self.min_clearance_m:
+        status = self._judge(corner, clearance)
+        if watching:  # the twist as sent, the lift included
+            self._expect(corners, heights)
+        return status
+
+    def _judge(self, corner: np.ndarray, clearance: float) -> Status:
+        """The guard's status with the lowest ``corner`` (world, m) ``clearance`` (m) above the
+        table; a trip raises the alarm and, with ``lift_mps``, lifts the pad."""
+        # a lifting trip lasts until the corner is back up at the brake's floor (hysteresis), or
+        # the tree's twist would bring it down again at once, tripping the guard tick after tick
+        clear_m = self.min_clearance_m
+        if self.lift_mps > 0 and self._tripped_at is not None:
+            clear_m += self.brake_margin_m
+        if clearance >= clear_m:
             self._tripped_at = None
             self._setup.set(self.alarm_key, None)
             self._feedback = None
@@ -216,6 +234,10 @@ class TableClearance(TactileBehaviour):
             self.feedback_message = f"{self._where(corner)}: not clear after backing off {self.recover_s:.1f} s"
             return Status.FAILURE
         self._setup.set(self.alarm_key, corner.copy())
+        if self.lift_mps > 0:
+            command = self.command
+            lift = np.concatenate((self.lift_mps * self.pose[2, :3], np.zeros(3)))  # world z, in the sensor frame
+            command.add(self.name, tuple((lift - command.summed()).tolist()))
         self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
 
