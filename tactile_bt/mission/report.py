@@ -102,6 +102,11 @@ class MissionReport:
         (:func:`tactile_bt.mission.metrics.force_figures`) and, under ``stiffness``, the contact
         stiffness an ``adapt_force_target`` leaf estimated and the target it adapted
         (:meth:`tactile_bt.tree.behaviours.stiffness.AdaptForceTarget.summary`).
+    table : dict or list, optional
+        What the tree's ``table_clearance`` guard saw and did over the mission: the share of
+        cycles its brake slowed, its trips, the time it lifted the pad (s) and the lowest
+        clearance of the pad's lowest corner above the table (m)
+        (:meth:`tactile_bt.tree.behaviours.table.TableClearance.summary`; a list for several).
     realtime : dict, optional
         A live mission's real-time figures: latency (frame arrival to twist sent), cycle period,
         jitter and work per cycle as percentiles in ms, cycles over budget
@@ -129,11 +134,12 @@ class MissionReport:
     realtime: dict | None = None
     frontier: dict | None = None
     force: dict | None = None
+    table: dict | list | None = None
 
     #: Key order of report.json.
     ORDER = ("tree", "recording", "scene", "seed", "status", "reason", "warnings", "rate_hz", "sim_time_s",
              "wall_time_s", "real_time_factor", "ticks", "metrics", "contacts", "path_error_m",
-             "path_error_cop_m", "reconstruction", "frontier", "supervisor", "force", "realtime")
+             "path_error_cop_m", "reconstruction", "frontier", "supervisor", "force", "table", "realtime")
 
     @property
     def ok(self) -> bool:
@@ -146,7 +152,8 @@ class MissionReport:
         for name in self.ORDER:
             value = getattr(self, name)
             if value is None and name in ("rate_hz", "recording", "path_error_m", "path_error_cop_m",
-                                          "reconstruction", "frontier", "supervisor", "force", "realtime"):
+                                          "reconstruction", "frontier", "supervisor", "force", "table",
+                                          "realtime"):
                 continue
             if name == "metrics":
                 value = {k: m.to_dict() for k, m in value.items()}
@@ -207,6 +214,13 @@ class MissionReport:
             lines.append(f"  supervisor       {n} intervention{'s' if n > 1 else ''}, "
                          f"{sup['retreat_time_s']:.2f} s retreating (longest {sup['longest_intervention_s']:.2f} s), "
                          f"peak {sup['peak_pressure_pa']:.0f} Pa, {sup['peak_force_n']:.1f} N")
+        table = self.table
+        if isinstance(table, dict) and table.get("lowest_clearance_m") is not None:
+            lifted = f", lifted {table['lifted_s']:.2f} s" if table.get("lifted_s") else ""
+            trips = table.get("trips", 0)
+            lines.append(f"  table guard      lowest corner {table['lowest_clearance_m'] * 1e3:.1f} mm above the table, "
+                         f"{trips} trip{'' if trips == 1 else 's'}{lifted}, braking "
+                         f"{100 * table.get('braked_share', 0.0):.1f} % of cycles")
         force = self.force
         stiffness = (force or {}).get("stiffness") or {}
         if force and (not force.get("ok", True)

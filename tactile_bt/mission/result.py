@@ -150,6 +150,7 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
         supervisor=supervision,
         frontier=_frontier_left(tree),
         force=_force_report(tree, arrays),
+        table=_table_report(tree),
     )
     cable = getattr(scene, "cable", None)
     if cable is not None:
@@ -187,6 +188,19 @@ def _force_report(tree, arrays: dict) -> dict:
     if adapters:
         force["stiffness"] = adapters[0] if len(adapters) == 1 else adapters
     return force
+
+
+def _table_report(tree) -> dict | list | None:
+    """The report's ``table``: what the tree's ``table_clearance`` guards saw and did
+    (:meth:`~tactile_bt.tree.behaviours.table.TableClearance.summary`; one: a dict, several: a
+    list, none: None)."""
+    from tactile_bt.tree.behaviours.table import TableClearance
+
+    root = getattr(tree, "root", tree)
+    guards = [node.summary() for node in root.iterate() if isinstance(node, TableClearance)]
+    if not guards:
+        return None
+    return guards[0] if len(guards) == 1 else guards
 
 
 def _joint_limit_runs(arrays: dict, log, scene) -> list:

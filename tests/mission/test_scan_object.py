@@ -218,6 +218,32 @@ def test_a_tripped_guard_lifts_the_pad_until_the_corner_is_back_at_the_brake_s_f
     assert lifting[first:last + 1].all()
     assert before[first] < 0.0005 <= before[first - 1] and before[last] < 0.0015 <= before[last + 1]
     assert py_trees.blackboard.Blackboard.storage["/scan/table_alarm"] is None
+    summary = guard.summary()  # what report.json shows under "table"
+    assert summary["trips"] == 1 and summary["cycles"] == len(heights)
+    assert summary["lifted_s"] == pytest.approx(lifting.sum() * DT)
+    assert summary["lowest_clearance_m"] == pytest.approx(before.min())
+
+
+@pytest.mark.slow
+def test_the_report_says_how_near_the_table_the_pad_came(tmp_path):
+    from tactile_bt import run_mission
+    from tactile_bt.mission.report import MissionReport
+
+    result = run_mission(REPO / "trees" / "scan_object.yaml", REPO / "sim" / "object.yaml", duration=4.0,
+                         reconstruct="none", out=tmp_path)
+    table = result.report["table"]
+    assert table["node"] == "table_clearance" and 0 < table["cycles"] < result.report["ticks"]  # from the scan on
+    assert table["trips"] == 0 and table["lifted_s"] == 0.0 and 0.0 <= table["braked_share"] <= 1.0
+    # the lowest corner the guard saw is the lowest the log's poses put the pad's corners at
+    log = result.log
+    lowest = min(pad_clearance(make_pose(R, p), PAD, 0.0) for R, p in zip(log["rotation"], log["position_m"]))
+    assert table["lowest_clearance_m"] == pytest.approx(lowest, abs=2e-3)
+    saved = MissionReport.load(tmp_path)
+    assert saved.table == table
+    shown = f"  table guard      lowest corner {table['lowest_clearance_m'] * 1e3:.1f} mm above the table, 0 trips, braking"
+    assert any(line.startswith(shown) for line in saved.summary_lines())
+    saved.table = {**table, "trips": 1, "lifted_s": 0.12}
+    assert any(", 1 trip, lifted 0.12 s, braking" in line for line in saved.summary_lines())
 
 
 def test_a_lift_that_a_contact_holds_back_is_no_sinking():

@@ -165,6 +165,11 @@ class TableClearance(TactileBehaviour):
         #: Whether the brake slowed the twist down at the last tick.
         self.braked = False
         self._reset_sink()
+        #: Over the whole mission, however often the guard starts again: cycles watched, cycles
+        #: braked, trips, time lifting (s) and the lowest clearance (m), for :meth:`summary`.
+        self._cycles = self._braked_cycles = self._all_trips = 0
+        self._lifted_s = 0.0
+        self._lowest_m = math.inf
 
     def setup(self, **kwargs) -> None:
         super().setup(**kwargs)
@@ -190,6 +195,8 @@ class TableClearance(TactileBehaviour):
             return Status.RUNNING
         corner = lowest_corner(self.pose, self.pad, self.margin_m)
         self.clearance_m = clearance = float(corner[2] - self.table_z_m)
+        self._cycles += 1
+        self._lowest_m = min(self._lowest_m, clearance)
         watching = self.brake_s > 0 and self.sink_tau_s > 0
         if self.brake_s > 0:
             # the corners (sensor frame) and their heights (m, world z), once for the whole tick
@@ -199,6 +206,7 @@ class TableClearance(TactileBehaviour):
             if watching:
                 self._watch_sink(heights)
             self._brake(corners, heights)
+            self._braked_cycles += self.braked
         status = self._judge(corner, clearance)
         if watching:  # the twist as sent, the lift included
             self._expect(corners, heights)
@@ -223,6 +231,7 @@ class TableClearance(TactileBehaviour):
         if self._tripped_at is None:
             self._tripped_at = self.now
             self.trips += 1
+            self._all_trips += 1
         below_s = self.now - self._tripped_at
         if clearance < min(self.hit_m, self.min_clearance_m):
             self.feedback_message = f"{self._where(corner)}: the pad touches the table (trip {self.trips})"
@@ -238,6 +247,7 @@ class TableClearance(TactileBehaviour):
             command = self.command
             lift = np.concatenate((self.lift_mps * self.pose[2, :3], np.zeros(3)))  # world z, in the sensor frame
             command.add(self.name, tuple((lift - command.summed()).tolist()))
+            self._lifted_s += self.dt
         self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
 
@@ -317,6 +327,16 @@ class TableClearance(TactileBehaviour):
         k = min(1.0, room / norm) if norm > 0.0 else 1.0
         sent = np.concatenate((k * across + rise * up, scale * w))
         command.add(self.name, tuple((sent - command.summed()).tolist()))
+
+    def summary(self) -> dict:
+        """What report.json shows under ``table``, over the whole mission: the cycles the guard
+        watched with a table known, the share of them the brake slowed, the trips, the time it
+        lifted the pad (s) and the lowest clearance of the pad's lowest corner (m; None when no
+        table was known)."""
+        return {"node": self.name, "cycles": self._cycles,
+                "braked_share": self._braked_cycles / self._cycles if self._cycles else 0.0,
+                "trips": self._all_trips, "lifted_s": self._lifted_s,
+                "lowest_clearance_m": self._lowest_m if math.isfinite(self._lowest_m) else None}
 
     def describe(self) -> str:
         """The clearance of the pad's lowest corner at the last tick, and the trips."""
