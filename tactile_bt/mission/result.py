@@ -177,16 +177,25 @@ def finish_mission(tree, log, contacts, status: str, reason: str, wall_start: fl
     return MissionResult(summary=summary, log=arrays, contact_data=contacts.data.copy(), surface=surface)
 
 
+def _summaries(tree, kind: type) -> dict | list | None:
+    """The ``summary()`` of the tree's leaves of type ``kind``: one leaf's dict, a list for
+    several, None for none."""
+    root = getattr(tree, "root", tree)
+    found = [node.summary() for node in root.iterate() if isinstance(node, kind)]
+    if not found:
+        return None
+    return found[0] if len(found) == 1 else found
+
+
 def _force_report(tree, arrays: dict) -> dict:
     """The report's ``force``: the force figures of the log, and the estimate and target of the
     tree's ``adapt_force_target`` leaves (one: a dict; several: a list)."""
     from tactile_bt.tree.behaviours.stiffness import AdaptForceTarget
 
     force = force_figures(arrays)
-    root = getattr(tree, "root", tree)
-    adapters = [node.summary() for node in root.iterate() if isinstance(node, AdaptForceTarget)]
-    if adapters:
-        force["stiffness"] = adapters[0] if len(adapters) == 1 else adapters
+    adapters = _summaries(tree, AdaptForceTarget)
+    if adapters is not None:
+        force["stiffness"] = adapters
     return force
 
 
@@ -196,11 +205,7 @@ def _table_report(tree) -> dict | list | None:
     list, none: None)."""
     from tactile_bt.tree.behaviours.table import TableClearance
 
-    root = getattr(tree, "root", tree)
-    guards = [node.summary() for node in root.iterate() if isinstance(node, TableClearance)]
-    if not guards:
-        return None
-    return guards[0] if len(guards) == 1 else guards
+    return _summaries(tree, TableClearance)
 
 
 def _joint_limit_runs(arrays: dict, log, scene) -> list:

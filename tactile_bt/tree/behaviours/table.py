@@ -244,9 +244,7 @@ class TableClearance(TactileBehaviour):
             return Status.FAILURE
         self._setup.set(self.alarm_key, corner.copy())
         if self.lift_mps > 0:
-            command = self.command
-            lift = np.concatenate((self.lift_mps * self.pose[2, :3], np.zeros(3)))  # world z, in the sensor frame
-            command.add(self.name, tuple((lift - command.summed()).tolist()))
+            self._send(np.concatenate((self.lift_mps * self.pose[2, :3], np.zeros(3))))  # world z, sensor frame
             self._lifted_s += self.dt
         self.feedback_message = f"backing off: {self._where(corner)} (trip {self.trips})"
         return Status.RUNNING
@@ -325,8 +323,13 @@ class TableClearance(TactileBehaviour):
         room = math.sqrt(max(command.linear_limit ** 2 - rise * rise, 0.0))
         norm = float(np.linalg.norm(across))
         k = min(1.0, room / norm) if norm > 0.0 else 1.0
-        sent = np.concatenate((k * across + rise * up, scale * w))
-        command.add(self.name, tuple((sent - command.summed()).tolist()))
+        self._send(np.concatenate((k * across + rise * up, scale * w)))
+
+    def _send(self, twist: np.ndarray) -> None:
+        """Make the cycle's twist ``twist`` (sensor frame, m/s and rad/s): add what it lacks to
+        what the leaves ticked before the guard have summed."""
+        command = self.command
+        command.add(self.name, tuple((twist - command.summed()).tolist()))
 
     def summary(self) -> dict:
         """What report.json shows under ``table``, over the whole mission: the cycles the guard
