@@ -4,9 +4,12 @@ is every force bounded? Prints the table the README shows (Markdown).
     python docs/exploration_scenes.py --seeds 0 1 2                 # every scene, three seeds
     python docs/exploration_scenes.py --only cable_bend30 scan_groove --seeds 0
     python docs/exploration_scenes.py --seeds 0 --figures docs/figures   # also the scans' renders
+    python docs/exploration_scenes.py --kind scan --param "frontier_guidance.speed_mps=30 mm/s"
 
 Cables run `trees/cable_follow.yaml` with twice the scene's budget, scans `trees/scan_object.yaml`
-with 600 s. A row's verdict:
+with 600 s; ``--param NODE.PARAM=VALUE`` (repeatable) changes a parameter of the scan tree, as
+``tactile-bt run --param`` does, to see how the table holds up when the tree is changed. A row's
+verdict:
 
 * **true success**: `success` and the goals met: for a cable, path error mean <= 1 mm and max <= 3
   mm, >= 85 % of the cable followed, p99 |COP x error| <= 1 px (after the approach, the last 2 s
@@ -79,12 +82,14 @@ def run_cable(scene_file: Path, seed: int) -> dict:
     return _row("cable", scene_file, seed, result.summary, goals, measures, force_figures(result.log), budget)
 
 
-def run_scan(scene_file: Path, seed: int, figures: Path | None) -> dict:
+def run_scan(scene_file: Path, seed: int, figures: Path | None, params: tuple[str, ...] = ()) -> dict:
+    """One scan of ``scene_file`` with ``seed`` (and the scan tree's ``params``, ``NODE.PARAM=VALUE``),
+    judged; its render (seed 0) copied to ``figures``."""
     from tactile_bt import run_mission
 
     out = Path(tempfile.mkdtemp(prefix="exploration_"))
     try:
-        result = run_mission(SCAN_TREE, scene_file, duration=SCAN_BUDGET_S, seed=seed, out=out)
+        result = run_mission(SCAN_TREE, scene_file, duration=SCAN_BUDGET_S, seed=seed, out=out, params=list(params))
         r = result.summary
         rec = r.reconstruction or {}
         coverage, chamfer = rec.get("coverage", math.nan), rec.get("chamfer_m", math.nan)
@@ -113,9 +118,9 @@ def _row(kind: str, scene_file: Path, seed: int, report, goals: dict, measures: 
 
 
 def _job(args: tuple) -> dict:
-    kind, scene_file, seed, figures = args
+    kind, scene_file, seed, figures, params = args
     try:
-        return run_cable(scene_file, seed) if kind == "cable" else run_scan(scene_file, seed, figures)
+        return run_cable(scene_file, seed) if kind == "cable" else run_scan(scene_file, seed, figures, params)
     except Exception as exc:  # a crash is a row of its own, not the end of the table
         return {"kind": kind, "scene": scene_file.stem, "seed": seed, "status": "error", "reason": repr(exc),
                 "sim_time_s": math.nan, "budget_s": math.nan, "measures": "", "goals_met": False,
@@ -172,7 +177,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="copy each scan's render (seed 0) to DIR/exploration_<scene>.png")
     parser.add_argument("--short", action="store_true", help="reasons without their counts and lists (the README's table)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
+    add_param_option(parser)
     args = parser.parse_args(argv)
+    check_params(parser, args.param)
     jobs = []
     for kind, files in scenes().items():
         if args.kind not in ("all", kind):
@@ -180,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
         for f in files:
             if args.only and f.stem not in args.only:
                 continue
-            jobs += [(kind, f, seed, args.figures) for seed in args.seeds]
+            jobs += [(kind, f, seed, args.figures, tuple(args.param)) for seed in args.seeds]
     if not jobs:
         parser.error(f"no scene matches --only {' '.join(args.only or [])}")
     # the scans first: they take longest
@@ -189,6 +196,27 @@ def main(argv: list[str] | None = None) -> int:
         rows = list(pool.map(_job, jobs))
     rows.sort(key=lambda r: (r["kind"], r["scene"], r["seed"]))
     return finish(rows, args.short, args.json)
+
+
+def add_param_option(parser: argparse.ArgumentParser) -> None:
+    """The ``--param`` option: a parameter of the scan tree, changed for every scan."""
+    parser.add_argument("--param", action="append", default=[], metavar="NODE.PARAM=VALUE",
+                        help="change a parameter of the scan tree for every scan (repeatable), "
+                             "e.g. \"frontier_guidance.speed_mps=30 mm/s\"")
+
+
+def check_params(parser: argparse.ArgumentParser, params: list[str]) -> None:
+    """Stop with the loader's message (the node or parameter it does not know, the value it
+    cannot read) before any mission runs, when ``params`` do not fit the scan tree."""
+    if not params:
+        return
+    from tactile_bt.errors import YamlError
+    from tactile_bt.tree import load_tree
+
+    try:
+        load_tree(SCAN_TREE, params=params)
+    except YamlError as exc:
+        parser.error(str(exc))
 
 
 def finish(rows: list[dict], short: bool, json_path: Path | None) -> int:

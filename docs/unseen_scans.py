@@ -5,6 +5,7 @@ SUCCESS, and the force bounds).
 
     python docs/unseen_scans.py                 # seed 0, every object
     python docs/unseen_scans.py --seeds 0 1 --only lumpy_soft torus_wide
+    python docs/unseen_scans.py --seeds 0 1 2 --param "frontier_guidance.speed_mps=30 mm/s"
 
 The tree never sees these scenes when it is tuned: they stand in for a user's own objects. Each
 is on the table with the LWR 4's base 0.39 m behind and 0.13 m above the pad's start, 3 mm above
@@ -172,10 +173,12 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"only these objects ({', '.join(sorted(OBJECTS))})")
     parser.add_argument("--workers", type=int, default=2, help="missions run at once (default: 2)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON file")
+    exploration_scenes.add_param_option(parser)
     args = parser.parse_args(argv)
+    exploration_scenes.check_params(parser, args.param)
     with tempfile.TemporaryDirectory(prefix="unseen_") as folder:
         files = [write_scene(name, Path(folder)) for name in (args.only or OBJECTS)]
-        jobs = [("scan", f, seed, None) for f in files for seed in args.seeds]
+        jobs = [("scan", f, seed, None, tuple(args.param)) for f in files for seed in args.seeds]
         with ProcessPoolExecutor(max_workers=max(args.workers, 1), initializer=exploration_scenes.SCAN_COVERAGE_OF.update,
                                  initargs=(COVERAGE_OF,)) as pool:
             rows = list(pool.map(exploration_scenes._job, jobs))

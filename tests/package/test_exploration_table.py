@@ -21,3 +21,29 @@ def test_a_time_out_keeps_what_the_scan_had_left():
     assert TABLE._short(reason) == reason  # nothing of it is a count or a list
     plain = "600 s of mission time ran out while frontier_guidance was running: sliding (12 targets, 3 ends)"
     assert TABLE._short(plain) == "600 s of mission time ran out while frontier_guidance was running: sliding"
+
+
+def test_a_parameter_the_scan_tree_does_not_have_stops_the_table_before_any_mission(capsys):
+    import pytest
+
+    with pytest.raises(SystemExit) as stop:
+        TABLE.main(["--kind", "scan", "--only", "object", "--param", "frontier_guidance.sped_mps=30 mm/s"])
+    assert stop.value.code == 2
+    message = capsys.readouterr().err
+    assert "sped_mps" in message and "did you mean 'speed_mps'" in message
+
+
+def test_a_scan_parameter_reaches_every_scan_of_the_table(monkeypatch, tmp_path):
+    import tactile_bt
+
+    seen = []
+
+    def run_mission(tree, scene, **kwargs):  # stands in for the mission: only what it was given matters
+        seen.append(kwargs["params"])
+        raise RuntimeError("not run")
+
+    monkeypatch.setattr(tactile_bt, "run_mission", run_mission)
+    TABLE.check_params(None, ["frontier_guidance.speed_mps=30 mm/s"])  # fits the tree: no error
+    row = TABLE._job(("scan", TABLE.ROOT / "sim" / "object.yaml", 0, None, ("frontier_guidance.speed_mps=30 mm/s",)))
+    assert seen == [["frontier_guidance.speed_mps=30 mm/s"]]
+    assert row["verdict"] == "**ERROR**"  # a crash is a row of its own
