@@ -2,6 +2,9 @@
 reader needs: the counts and lists go, a joint held at its limit and what a scan had left when
 its time ran out stay."""
 
+import pytest
+
+import tactile_bt
 from docs_scripts import load_docs_script
 
 TABLE = load_docs_script("exploration_scenes")
@@ -24,8 +27,6 @@ def test_a_time_out_keeps_what_the_scan_had_left():
 
 
 def test_a_parameter_the_scan_tree_does_not_have_stops_the_table_before_any_mission(capsys):
-    import pytest
-
     with pytest.raises(SystemExit) as stop:
         TABLE.main(["--kind", "scan", "--only", "object", "--param", "frontier_guidance.sped_mps=30 mm/s"])
     assert stop.value.code == 2
@@ -33,9 +34,7 @@ def test_a_parameter_the_scan_tree_does_not_have_stops_the_table_before_any_miss
     assert "sped_mps" in message and "did you mean 'speed_mps'" in message
 
 
-def test_a_scan_parameter_reaches_every_scan_of_the_table(monkeypatch, tmp_path):
-    import tactile_bt
-
+def test_a_scan_parameter_reaches_the_scan_s_mission(monkeypatch):
     seen = []
 
     def run_mission(tree, scene, **kwargs):  # stands in for the mission: only what it was given matters
