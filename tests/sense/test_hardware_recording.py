@@ -112,6 +112,31 @@ def test_corrupted_header_and_chunk_name_file_and_offset(tmp_path):
         read_recording(bad)
 
 
+class _InterruptedFrame:
+    """A frame whose sensor id is read when a Ctrl-C (or the SIGTERM the CLI turns into one)
+    arrives: the recorder is interrupted half-way through buffering it."""
+
+    def __init__(self, values: np.ndarray, timestamp: float) -> None:
+        self.values, self.timestamp, self.device_timestamp = values, timestamp, 9
+
+    @property
+    def sensor_id(self) -> int:
+        raise KeyboardInterrupt
+
+
+def test_an_interrupt_while_a_frame_is_buffered_leaves_a_readable_recording(tmp_path):
+    path = tmp_path / "r.tbr"
+    values = np.random.default_rng(1).integers(0, 4096, (5, 16, 16), dtype=np.uint16)
+    with pytest.raises(KeyboardInterrupt):
+        with Recorder(path, chunk_frames=64, chunk_seconds=1e9) as rec:
+            for k, v in enumerate(values):
+                rec.write(TactileFrame(v, 0.004 * k, 1, k))
+            rec.write(_InterruptedFrame(values[0], 1.0))
+    got, timestamps, _ = read_recording(path)  # the frames before the interrupt, none half-written
+    np.testing.assert_array_equal(got, values)
+    np.testing.assert_allclose(timestamps, 0.004 * np.arange(5))
+
+
 def test_replay_is_deterministic_and_paced(tmp_path):
     path = tmp_path / "r.tbr"
     values = make_recording(path, n=40)  # 0.156 s of recorded time

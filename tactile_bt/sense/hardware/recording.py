@@ -102,11 +102,10 @@ class Recorder:
         self._reset()
 
     def _reset(self) -> None:
-        self._t: list[float] = []
-        self._pose: list[np.ndarray] = []
-        self._dev: list[int] = []
-        self._values: list[np.ndarray] = []
-        self._sid: list[int] = []
+        # one tuple (time, pose, device time, values, sensor id) per frame, appended in one step:
+        # a Ctrl-C or SIGTERM between two appends to parallel lists would leave a frame half
+        # buffered, and the last chunk would declare more frames than its payload holds
+        self._frames: list[tuple] = []
         self._started = time.monotonic()
 
     def _sync(self) -> None:
@@ -127,25 +126,24 @@ class Recorder:
         if timestamp is None:
             timestamp = getattr(frame, "timestamp", None)
         matrix = _pose_matrix(pose)  # validate everything before appending anything
-        self._t.append(time.monotonic() if timestamp is None else float(timestamp))
-        self._pose.append(matrix)
-        self._dev.append(int(getattr(frame, "device_timestamp", 0)) & 0xFFFFFFFF)
-        self._values.append(values.astype(np.uint16))
-        self._sid.append(int(getattr(frame, "sensor_id", 1)) & 0xFF)
-        if len(self._t) >= self.chunk_frames or time.monotonic() - self._started >= self.chunk_seconds:
+        self._frames.append((time.monotonic() if timestamp is None else float(timestamp), matrix,
+                             int(getattr(frame, "device_timestamp", 0)) & 0xFFFFFFFF, values.astype(np.uint16),
+                             int(getattr(frame, "sensor_id", 1)) & 0xFF))
+        if len(self._frames) >= self.chunk_frames or time.monotonic() - self._started >= self.chunk_seconds:
             self.flush()
 
     def flush(self) -> None:
         """Write the buffered frames as one chunk now (no-op when empty)."""
-        n = len(self._t)
+        n = len(self._frames)
         if n == 0 or self._file.closed:
             return
+        t, pose, dev, values, sid = zip(*self._frames)
         payload = b"".join((
-            np.asarray(self._t, dtype="<f8").tobytes(),
-            np.asarray(self._pose, dtype="<f8").tobytes(),
-            np.asarray(self._dev, dtype="<u4").tobytes(),
-            np.asarray(self._values, dtype="<u2").tobytes(),
-            np.asarray(self._sid, dtype="u1").tobytes(),
+            np.asarray(t, dtype="<f8").tobytes(),
+            np.asarray(pose, dtype="<f8").tobytes(),
+            np.asarray(dev, dtype="<u4").tobytes(),
+            np.asarray(values, dtype="<u2").tobytes(),
+            np.asarray(sid, dtype="u1").tobytes(),
         ))
         self._file.write(_CHUNK.pack(CHUNK_MAGIC, n, len(payload), zlib.crc32(payload)) + payload)
         self._sync()
