@@ -89,6 +89,29 @@ def test_a_corner_that_touched_while_lowering_lifts_off_straight_up():
     assert np.linalg.norm(risen[:2] - touched[0][:2]) < 0.002   # along its normal: 7 mm aside
 
 
+def test_a_touch_by_the_edge_after_the_middle_was_open_is_tried_again_halfway_and_the_probe_goes_on():
+    """A hole whose edge lies nearer the middle than the map's on one side: the corner touches
+    there, finds it open halfway to the middle, and probes the other side too."""
+    R = {yaw: pad_rotation((0.08, 0.08), yaw, math.radians(65)) for yaw in (0.0, math.pi)}
+    xs = (0.06, 0.10, 0.02)  # the middle, then an edge point either side
+    probes = [(np.array([x, 0.0]), R[math.pi if x > 0.06 else 0.0], 0.012) for x in xs]
+    retries = [None, (np.array([0.08, 0.0]), R[math.pi], 0.012), (np.array([0.04, 0.0]), R[0.0], 0.012)]
+    job = {"hole": {"probes": probes, "retries": retries, "cells": np.zeros((0, 2)), "centre": np.array([0.06, 0.0])},
+           "top_z": 0.06, "home": (HOME, np.array([0.0, 0.0, 1.0]))}
+    h, leaf = _harness(job)
+
+    def surface(T):  # the pad where it started, and surface 30 mm up beyond x = 90 mm
+        corner = lowest_corner(T, leaf.pad)
+        return np.linalg.norm(T[:3, 3] - HOME) < 1e-4 or (corner[0] > 0.09 and corner[2] <= 0.03)
+
+    status, T = fly(h, surface, max_ticks=40000)
+    assert status == Status.SUCCESS and job["result"] == "partly open"
+    assert job["outcomes"] == ["open", "touched", "open", "open"]
+    npt.assert_allclose(np.array(job["tried"])[:, 0], [0.06, 0.10, 0.08, 0.02], atol=1e-9)
+    npt.assert_allclose(job["reached"][1], 0.03, atol=0.002)    # where the corner met the surface
+    npt.assert_allclose(T[:3, 3], HOME, atol=0.003)
+
+
 def test_without_a_pending_probe_it_succeeds_at_once():
     h, _ = _harness(None)
     assert h.tick(make_features()) == Status.SUCCESS

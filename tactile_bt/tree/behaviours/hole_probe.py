@@ -17,12 +17,16 @@ in turn with the pad tilted corner first (turned a quarter turn about its normal
 square pad senses the same, where the arm's wrist would otherwise be wound near its limit, as
 ``reapproach`` does) and lowers it straight down, holding its orientation,
 until the corner reaches its height (the valley is open there: on to the next point), the pad
-touches, or comes into contact at all while lowering (the valley holds surface: ``"result":
-"touched"``, with the point under ``"touched"``)
-or the arm stops it (on to the next point). It writes each point's outcome under
-``"outcomes"`` and the corner's lowest heights under ``"reached"``, and ``"result": "open"``
-when the pad touched nowhere and the arm got it to every point but one at most, and to two at
-least (``reach`` otherwise). Then it goes back to the touched point it left, as
+touches, or comes into contact at all while lowering (the valley holds surface there, with the
+point under ``"touched"``), or the arm stops it (on to the next point). A touch before any
+point was found open ends the probe, ``"result": "touched"``. A touch after one was (the hole's
+edge lies nearer the middle than the map's, on a side the pad has not touched yet) is tried
+once more halfway to the middle, if the job holds a pose for it (``"retries"``, one per point
+or None), and the probe goes on to the next point. It writes where the corner went down under
+``"tried"`` (world xy, m), each outcome under ``"outcomes"`` and the corner's lowest heights
+under ``"reached"``, and ``"result": "open"`` when the pad touched nowhere and the arm got it
+to every point but one at most, and to two at least (``reach`` otherwise), ``"partly open"``
+when it touched somewhere and found some point open. Then it goes back to the touched point it left, as
 ``reapproach`` does, lifting off straight up where the corner touched while lowering (the way it
 came down: along its tilted normal it may press the valley's other side); exploring goes on from there.
 
@@ -66,8 +70,10 @@ class HoleProbe(Reapproach):
         self._job = job if isinstance(job, dict) and "hole" in job and "result" not in job else None
         self._lowering = self._rising = False
         if self._job is not None:
-            self._job["reached"], self._job["outcomes"] = [], []
+            self._job["reached"], self._job["outcomes"], self._job["tried"] = [], [], []
             self._probe = 0
+            self._point = self._probes()[0]
+            self._retried = False
             self._start_probe()
 
     def describe(self) -> str:
@@ -85,9 +91,14 @@ class HoleProbe(Reapproach):
     def _probes(self) -> list:
         return self._job["hole"]["probes"]
 
+    def _retry(self) -> tuple | None:
+        """The current point's retry halfway to the valley's middle, if any."""
+        retries = self._job["hole"].get("retries") or ()
+        return retries[self._probe] if self._probe < len(retries) else None
+
     def _start_probe(self) -> None:
         """Route to above the current point, the pad tilted corner first."""
-        xy, R, corner_z = self._probes()[self._probe]
+        xy, R, corner_z = self._point
         self._R = self._unwound(np.asarray(R, dtype=float))  # a quarter turn back where the wrist is wound
         self._corner = np.array([xy[0], xy[1], corner_z])
         offset = lowest_corner(make_pose(self._R, np.zeros(3)), self.pad)  # from the pad's centre
@@ -97,22 +108,37 @@ class HoleProbe(Reapproach):
         self._going_home = False
         self._lowering = False
         self._route(start, self._R, top_z)
+        self._rising = False  # lifted straight up off a touch already, if it was one
         self._low = (math.inf, self.now)
 
     def _finish(self, result: str) -> None:
-        """Note the corner's height and the point's outcome; on to the next point unless the
-        pad touched. At the end: ``open`` when every point was open but at most
-        ``_UNREACHED`` the arm could not get to, ``reach`` when it could not get to more."""
+        """Note where the corner went down, how low, and the outcome; where it touched after
+        some point was found open, once more halfway to the middle (the retry the job holds),
+        and on to the next point; otherwise on to the next point unless the pad touched. At the
+        end: ``open`` when every point was open but at most ``_UNREACHED`` the arm could not get
+        to, ``reach`` when it could not get to more, ``partly open`` when the corner touched at
+        some points and went down touching nothing at others, ``touched`` when it touched before
+        it found any open."""
         if not self._going_home and self._job is not None and "hole" in self._job:
+            outcomes = self._job["outcomes"]
+            found_open = "open" in outcomes  # before this one
             self._job["reached"].append(float(lowest_corner(self.pose, self.pad)[2]))
-            self._job["outcomes"].append(result)
-            if result != "touched" and self._probe + 1 < len(self._probes()):
+            self._job["tried"].append(np.asarray(self._point[0], dtype=float).copy())
+            outcomes.append(result)
+            if result == "touched" and found_open and not self._retried and self._retry() is not None:
+                self._retried, self._point = True, self._retry()
+                self._start_probe()
+                return
+            if (result != "touched" or found_open) and self._probe + 1 < len(self._probes()):
                 self._probe += 1
+                self._retried, self._point = False, self._probes()[self._probe]
                 self._start_probe()
                 return
             self._lowering = False
-            if result != "touched":
-                opened = self._job["outcomes"].count("open")
+            if "touched" in outcomes:
+                result = "partly open" if "open" in outcomes else "touched"
+            else:
+                opened = outcomes.count("open")
                 result = "open" if opened >= max(2, len(self._probes()) - _UNREACHED) else "reach"
         super()._finish(result)
 
