@@ -107,9 +107,28 @@ def test_a_touch_by_the_edge_after_the_middle_was_open_is_tried_again_halfway_an
     status, T = fly(h, surface, max_ticks=40000)
     assert status == Status.SUCCESS and job["result"] == "partly open"
     assert job["outcomes"] == ["open", "touched", "open", "open"]
-    npt.assert_allclose(np.array(job["tried"])[:, 0], [0.06, 0.10, 0.08, 0.02], atol=1e-9)
-    npt.assert_allclose(job["reached"][1], 0.03, atol=0.002)    # where the corner met the surface
+    tried = np.array(job["tried"])
+    npt.assert_allclose(tried[[0, 2, 3], 0], [0.06, 0.08, 0.02], atol=1e-9)
+    npt.assert_allclose(tried[1], job["touched"][:2], atol=1e-9)  # the surface: where the pad touched
+    npt.assert_allclose(job["reached"][1], 0.03, atol=0.002)    # the corner's height then
     npt.assert_allclose(T[:3, 3], HOME, atol=0.003)
+
+
+def test_a_pad_that_touches_once_its_corner_is_down_to_the_hole_s_floor_found_the_hole_open_there():
+    """Tilted corner first, the pad's body may meet the far side of a ring's hole while the
+    corner is already as deep as the planner's ``open_z``: open where the corner is."""
+    job = _job([0.005, 0.005])
+    job["hole"]["open_z"] = 0.02
+    h, leaf = _harness(job)
+
+    def body_on_far_side(T):  # touches once the corner is 15 mm up, at the first point only
+        corner = lowest_corner(T, leaf.pad)
+        return np.linalg.norm(T[:3, 3] - HOME) < 1e-4 or (corner[0] < 0.06 and corner[2] <= 0.015)
+
+    status, _ = fly(h, body_on_far_side, max_ticks=40000)
+    assert status == Status.SUCCESS and job["result"] == "partly open"
+    assert job["outcomes"][:2] == ["open", "touched"] and job["outcomes"][-1] == "open"
+    npt.assert_allclose(job["tried"][0], [0.05, 0.0], atol=1e-9)  # open at the corner's point
 
 
 def test_without_a_pending_probe_it_succeeds_at_once():

@@ -246,7 +246,8 @@ class FrontierJobs(FrontierLeft):
         if len(probes) < len(valley["points"]):
             return None  # the corner cannot go deep enough everywhere: the probe could not tell
         self._probed.append({"centre": valley["centre"], "area_m2": valley["area_m2"], "result": None})
-        job = {"hole": {"probes": probes, "retries": retries, "cells": valley["cells"], "centre": valley["centre"]},
+        job = {"hole": {"probes": probes, "retries": retries, "cells": valley["cells"], "centre": valley["centre"],
+                        "open_z": deep},
                "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
         write(self.reapproach_key, job)

@@ -63,6 +63,7 @@ class HoleProbe(Reapproach):
     SUCCESS at once without one."""
 
     _rising = False  # lift straight up off the next contact (the corner touched while lowering)
+    _touch_xy: np.ndarray | None = None  # where the pad touched at the current point (world xy, m)
 
     def initialise(self) -> None:
         super().initialise()  # a re-approach job is reapproach's; this leaf passes it by
@@ -109,10 +110,24 @@ class HoleProbe(Reapproach):
         self._lowering = False
         self._route(start, self._R, top_z)
         self._rising = False  # lifted straight up off a touch already, if it was one
+        self._touch_xy = None
         self._low = (math.inf, self.now)
 
+    def _note(self, outcome: str, xy: np.ndarray, reached: float) -> None:
+        """Write down an ``outcome`` at world ``xy`` (m), the corner down to ``reached`` (m)."""
+        self._job["outcomes"].append(outcome)
+        self._job["tried"].append(xy)
+        self._job["reached"].append(reached)
+
+    def _note_touch(self) -> np.ndarray:
+        point = super()._note_touch()
+        self._touch_xy = np.asarray(point[:2], dtype=float).copy()
+        return point
+
     def _finish(self, result: str) -> None:
-        """Note where the corner went down, how low, and the outcome; where it touched after
+        """Note where the corner went down, how low, and the outcome (where the pad touched,
+        the touch's centre of pressure, and the corner's point too, as open, if the corner had
+        come down to the job's ``open_z`` by then); where it touched after
         some point was found open, once more halfway to the middle (the retry the job holds),
         and on to the next point; otherwise on to the next point unless the pad touched. At the
         end: ``open`` when every point was open but at most ``_UNREACHED`` the arm could not get
@@ -121,10 +136,17 @@ class HoleProbe(Reapproach):
         it found any open."""
         if not self._going_home and self._job is not None and "hole" in self._job:
             outcomes = self._job["outcomes"]
+            reached = float(lowest_corner(self.pose, self.pad)[2])
+            here = np.asarray(self._point[0], dtype=float).copy()
+            if result == "touched":
+                # the corner down to the hole's floor before the pad touched (with its body,
+                # elsewhere): open where the corner is; the surface is where the pad touched
+                if reached <= float(self._job["hole"].get("open_z", -math.inf)):
+                    self._note("open", here, reached)
+                if self._touch_xy is not None:
+                    here = self._touch_xy
             found_open = "open" in outcomes  # before this one
-            self._job["reached"].append(float(lowest_corner(self.pose, self.pad)[2]))
-            self._job["tried"].append(np.asarray(self._point[0], dtype=float).copy())
-            outcomes.append(result)
+            self._note(result, here, reached)
             if result == "touched" and found_open and not self._retried and self._retry() is not None:
                 self._retried, self._point = True, self._retry()
                 self._start_probe()
