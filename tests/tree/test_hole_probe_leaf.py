@@ -90,13 +90,15 @@ def test_a_corner_that_touched_while_lowering_lifts_off_straight_up():
 
 
 def test_a_touch_by_the_edge_after_the_middle_was_open_is_tried_again_halfway_and_the_probe_goes_on():
-    """A hole whose edge lies nearer the middle than the map's on one side: the corner touches
-    there, finds it open halfway to the middle, and probes the other side too."""
+    """A hole wider than the pad (a partial probe) whose edge lies nearer the middle than the
+    map's on one side: the corner touches there, finds it open halfway to the middle, and probes
+    the other side too; a probe that is not partial ends at the touch."""
     R = {yaw: pad_rotation((0.08, 0.08), yaw, math.radians(65)) for yaw in (0.0, math.pi)}
     xs = (0.06, 0.10, 0.02)  # the middle, then an edge point either side
     probes = [(np.array([x, 0.0]), R[math.pi if x > 0.06 else 0.0], 0.012) for x in xs]
     retries = [None, (np.array([0.08, 0.0]), R[math.pi], 0.012), (np.array([0.04, 0.0]), R[0.0], 0.012)]
-    job = {"hole": {"probes": probes, "retries": retries, "cells": np.zeros((0, 2)), "centre": np.array([0.06, 0.0])},
+    job = {"hole": {"probes": probes, "retries": retries, "cells": np.zeros((0, 2)), "centre": np.array([0.06, 0.0]),
+                    "partial": True},
            "top_z": 0.06, "home": (HOME, np.array([0.0, 0.0, 1.0]))}
     h, leaf = _harness(job)
 
@@ -112,13 +114,17 @@ def test_a_touch_by_the_edge_after_the_middle_was_open_is_tried_again_halfway_an
     npt.assert_allclose(tried[1], job["touched"][:2], atol=1e-9)  # the surface: where the pad touched
     npt.assert_allclose(job["reached"][1], 0.03, atol=0.002)    # the corner's height then
     npt.assert_allclose(T[:3, 3], HOME, atol=0.003)
+    job = {"hole": {**job["hole"], "partial": False}, "top_z": job["top_z"], "home": job["home"]}
+    h, leaf = _harness(job)
+    status, _ = fly(h, surface, max_ticks=40000)
+    assert status == Status.SUCCESS and job["result"] == "touched" and job["outcomes"] == ["open", "touched"]
 
 
 def test_a_pad_that_touches_once_its_corner_is_down_to_the_hole_s_floor_found_the_hole_open_there():
     """Tilted corner first, the pad's body may meet the far side of a ring's hole while the
     corner is already as deep as the planner's ``open_z``: open where the corner is."""
     job = _job([0.005, 0.005])
-    job["hole"]["open_z"] = 0.02
+    job["hole"].update(open_z=0.02, partial=True)
     h, leaf = _harness(job)
 
     def body_on_far_side(T):  # touches once the corner is 15 mm up, at the first point only

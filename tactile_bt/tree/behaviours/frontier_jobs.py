@@ -91,9 +91,9 @@ class FrontierJobs(FrontierLeft):
                                     "as for a re-approach: a valley the touched area encloses (a ring's hole) before "
                                     "any sweep, the others once no sweep is left to ask for. A hole wider than the pad "
                                     "(up to twice its width) that unexplained frontier faces is probed the same way, "
-                                    "before any sweep. Where the corner touches after it found the middle open, it tries "
-                                    "again halfway to the middle; the cells nearer the points found open than those "
-                                    "touched are marked empty (a hole ``partly open``). A probe that touched surface "
+                                    "before any sweep; where the corner touches there after it found the middle open, it "
+                                    "tries again halfway to the middle, and the cells nearer the points found open than "
+                                    "those touched are marked empty (a hole ``partly open``). A probe that touched surface "
                                     "leaves its valley to be probed again once sliding has shrunk it to 80 % of its "
                                     "area then.")
     hole_floor_m = Parameter(0.02, bound=NON_NEGATIVE,
@@ -239,15 +239,16 @@ class FrontierJobs(FrontierLeft):
                 if probe is not None:
                     probes.append(probe)
                     near = probe[1]
-                    # where the corner touches, the same halfway to the middle: the hole's edge lies between
+                    # in a hole wider than the pad, where the corner touches, the same halfway to the
+                    # middle: the hole's edge lies between (see hole_probe)
                     halfway = point_xy + 0.5 * (1.0 + inwards) * (valley["centre"] - point_xy)
-                    retries.append(lowered(halfway, deep, near) if k else None)
+                    retries.append(lowered(halfway, deep, near) if k and wide else None)
                     break
         if len(probes) < len(valley["points"]):
             return None  # the corner cannot go deep enough everywhere: the probe could not tell
         self._probed.append({"centre": valley["centre"], "area_m2": valley["area_m2"], "result": None})
         job = {"hole": {"probes": probes, "retries": retries, "cells": valley["cells"], "centre": valley["centre"],
-                        "open_z": deep},
+                        "open_z": deep, "partial": wide},
                "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
         write(self.reapproach_key, job)

@@ -18,15 +18,18 @@ square pad senses the same, where the arm's wrist would otherwise be wound near 
 ``reapproach`` does) and lowers it straight down, holding its orientation,
 until the corner reaches its height (the valley is open there: on to the next point), the pad
 touches, or comes into contact at all while lowering (the valley holds surface there, with the
-point under ``"touched"``), or the arm stops it (on to the next point). A touch before any
-point was found open ends the probe, ``"result": "touched"``. A touch after one was (the hole's
-edge lies nearer the middle than the map's, on a side the pad has not touched yet) is tried
-once more halfway to the middle, if the job holds a pose for it (``"retries"``, one per point
-or None), and the probe goes on to the next point. It writes where the corner went down under
-``"tried"`` (world xy, m), each outcome under ``"outcomes"`` and the corner's lowest heights
-under ``"reached"``, and ``"result": "open"`` when the pad touched nowhere and the arm got it
-to every point but one at most, and to two at least (``reach`` otherwise), ``"partly open"``
-when it touched somewhere and found some point open. Then it goes back to the touched point it left, as
+point under ``"touched"``), or the arm stops it (on to the next point). A touch ends the
+probe, ``"result": "touched"``, but in a job marked ``"partial"`` (a hole wider than the pad)
+after some point was found open: there the hole's edge lies nearer the middle than the map's, on
+a side the pad has not slid down yet; the touch is written down where the pad touched, the
+corner's point as open too if the corner was down to the job's ``"open_z"`` by then (the pad's
+body met the hole's far side), the point is tried once more halfway to the middle if the job
+holds a pose for it (``"retries"``, one per point or None), and the probe goes on to the next
+point. It writes where the corner went down (or the pad touched) under ``"tried"`` (world xy,
+m), each outcome under ``"outcomes"`` and the corner's lowest heights under ``"reached"``, and
+``"result": "open"`` when the pad touched nowhere and the arm got it to every point but one at
+most, and to two at least (``reach`` otherwise), ``"partly open"`` when a partial probe touched
+somewhere and found some point open. Then it goes back to the touched point it left, as
 ``reapproach`` does, lifting off straight up where the corner touched while lowering (the way it
 came down: along its tilted normal it may press the valley's other side); exploring goes on from there.
 
@@ -125,27 +128,27 @@ class HoleProbe(Reapproach):
         return point
 
     def _finish(self, result: str) -> None:
-        """Note where the corner went down, how low, and the outcome (where the pad touched,
-        the touch's centre of pressure, and the corner's point too, as open, if the corner had
-        come down to the job's ``open_z`` by then); where it touched after
-        some point was found open, once more halfway to the middle (the retry the job holds),
-        and on to the next point; otherwise on to the next point unless the pad touched. At the
-        end: ``open`` when every point was open but at most ``_UNREACHED`` the arm could not get
-        to, ``reach`` when it could not get to more, ``partly open`` when the corner touched at
-        some points and went down touching nothing at others, ``touched`` when it touched before
-        it found any open."""
+        """Note where the corner went down, how low, and the outcome; on to the next point
+        unless the pad touched. In a partial probe, a touch is noted at the touch's centre of
+        pressure (and the corner's point as open, if the corner had come down to the job's
+        ``open_z`` by then), and one after some point was found open is tried once more halfway
+        to the middle (the retry the job holds) and the probe goes on. At the end: ``open``
+        when every point was open but at most ``_UNREACHED`` the arm could not get to, ``reach``
+        when it could not get to more, ``partly open`` when a partial probe touched at some
+        points and found others open, ``touched`` otherwise where the pad touched."""
         if not self._going_home and self._job is not None and "hole" in self._job:
             outcomes = self._job["outcomes"]
             reached = float(lowest_corner(self.pose, self.pad)[2])
             here = np.asarray(self._point[0], dtype=float).copy()
-            if result == "touched":
+            partial = bool(self._job["hole"].get("partial", False))
+            if result == "touched" and partial:
                 # the corner down to the hole's floor before the pad touched (with its body,
                 # elsewhere): open where the corner is; the surface is where the pad touched
                 if reached <= float(self._job["hole"].get("open_z", -math.inf)):
                     self._note("open", here, reached)
                 if self._touch_xy is not None:
                     here = self._touch_xy
-            found_open = "open" in outcomes  # before this one
+            found_open = partial and "open" in outcomes  # before this one
             self._note(result, here, reached)
             if result == "touched" and found_open and not self._retried and self._retry() is not None:
                 self._retried, self._point = True, self._retry()
@@ -158,7 +161,7 @@ class HoleProbe(Reapproach):
                 return
             self._lowering = False
             if "touched" in outcomes:
-                result = "partly open" if "open" in outcomes else "touched"
+                result = "partly open" if partial and "open" in outcomes else "touched"
             else:
                 opened = outcomes.count("open")
                 result = "open" if opened >= max(2, len(self._probes()) - _UNREACHED) else "reach"
