@@ -11,8 +11,7 @@ any part of the pad coming near the touched surface. By the edge, a corner that 
 the table may still tell the wall under the rim: :func:`below_rim_z` is how low it must come for
 that wall to be steeper than the pad may tilt, and :func:`steep_rim_cells` which cells of the
 band a probe leaves along an open hole's rim the corners that came that low show to hold no
-surface within the pad's tilt, and :func:`open_cells` which cells of a valley a probe that found it
-open at some points and touched at others shows open. Pure geometry: no time, no robot, no tree.
+surface within the pad's tilt. Pure geometry: no time, no robot, no tree.
 
 Layer: contacts.
 """
@@ -27,7 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile_bt.contacts.frontier_map import HOLE_RIM_M
 
-__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "below_rim_z", "steep_rim_cells", "open_cells"]
+__all__ = ["probe_points", "corner_first", "pad_rotation", "least_turn", "below_rim_z", "steep_rim_cells"]
 
 #: The yaws (rad) and the tilts (rad, below the largest) a corner-first pose is searched over.
 _YAWS = np.radians(np.arange(0.0, 360.0, 15.0))
@@ -191,20 +190,3 @@ def steep_rim_cells(m, points_xy: np.ndarray, reached_z: np.ndarray, max_tilt_ra
     cells = m.centre_of(rows, cols)
     gap = np.min(np.linalg.norm(cells[:, None, :] - np.asarray(shown)[None, :, :], axis=2), axis=1)
     return cells[gap <= along_m]
-
-
-def open_cells(cells_xy: np.ndarray, tried_xy: np.ndarray, opened: np.ndarray) -> np.ndarray:
-    """The cells (world xy, m, of ``cells_xy`` ``(j, 2)``) a probe shows open: those nearer a
-    point where the corner went down touching nothing (``tried_xy`` ``(k, 2)``, world, m, where
-    ``opened``, ``(k,)`` bool) than any other point it tried, where it touched or the arm could
-    not get it. With every point open, all of them; with none, none. The edge of a hole lies
-    between a point found open and one that touched: halfway is the best the probe can tell."""
-    cells = np.asarray(cells_xy, dtype=float).reshape(-1, 2)
-    tried = np.asarray(tried_xy, dtype=float).reshape(-1, 2)
-    opened = np.asarray(opened, dtype=bool)
-    if not len(cells) or not opened.any():
-        return np.zeros((0, 2))
-    if opened.all():
-        return cells
-    nearest = np.argmin(np.linalg.norm(cells[:, None, :] - tried[None, :, :], axis=2), axis=1)
-    return cells[opened[nearest]]

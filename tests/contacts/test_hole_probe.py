@@ -12,8 +12,8 @@ from scipy import ndimage
 from tactile_bt.contacts.frontier_map import FrontierMap
 from scipy.spatial.transform import Rotation
 
-from tactile_bt.contacts.hole_probe import (below_rim_z, corner_first, least_turn, open_cells, pad_rotation,
-                                           probe_points, steep_rim_cells)
+from tactile_bt.contacts.hole_probe import (below_rim_z, corner_first, least_turn, pad_rotation, probe_points,
+                                           steep_rim_cells)
 
 PAD = (0.08, 0.08)
 
@@ -170,19 +170,3 @@ def test_a_corner_that_came_below_the_wall_at_the_tilt_limit_clears_the_rim_band
     far = np.min(np.linalg.norm(m.centre_of(*np.nonzero(left))[:, None] - rim[None], axis=-1), axis=1) > 0.5 * min(PAD)
     assert np.all(far | next_to_touched[np.nonzero(left)])
     assert left.sum() < 0.8 * len(band_xy)
-
-
-def test_a_probe_open_at_the_middle_and_touched_by_the_edge_shows_open_the_cells_nearer_the_open_points():
-    rng = np.random.default_rng(7)
-    cells = rng.uniform(-0.05, 0.05, (2000, 2))
-    # the middle and, halfway to an edge point that touched, a retry found open; two edge points touched
-    tried = np.array([[0.0, 0.0], [0.045, 0.0], [0.0225, 0.0], [-0.045, 0.0]])
-    opened = np.array([True, False, True, False])
-    shown = open_cells(cells, tried, opened)
-    d = np.linalg.norm(cells[:, None, :] - tried[None, :, :], axis=2)
-    nearer = np.min(d[:, opened], axis=1) < np.min(d[:, ~opened], axis=1)
-    npt.assert_array_equal(np.sort(shown, axis=0), np.sort(cells[nearer], axis=0))
-    assert np.all(shown[:, 0] < 0.03375 + 1e-9) and np.all(shown[:, 0] > -0.0225 - 1e-9)  # halfway to each touch
-    # every point open: the whole valley; none: nothing
-    npt.assert_array_equal(open_cells(cells, tried, np.ones(4, dtype=bool)), cells)
-    assert open_cells(cells, tried, np.zeros(4, dtype=bool)).shape == (0, 2)

@@ -972,40 +972,6 @@ def test_a_hole_wider_than_the_pad_stalled_round_its_rim_is_probed_and_found_ope
     assert leaf.sweeps is None or not leaf.sweeps.swept
 
 
-def test_a_hole_found_open_at_its_middle_but_touched_by_one_edge_point_leaves_the_estimate_on_the_open_side():
-    # the ring's hole 90 mm across, probed: the corner goes down touching nothing at the middle
-    # and at three edge points, but touches 6 mm inside the rim at the fourth, and halfway from
-    # there to the middle finds it open again; the hole leaves the estimate nearer the open
-    # points only: the side by the touch stays counted
-    leaf, h, _, _ = _stalled_ring(0.045, max_hole_probes=2, max_sweeps=1)
-    _, status = ticks_until_done(h, 10)
-    assert status == Status.FAILURE and leaf.feedback_message.startswith("probing the hole at"), leaf.feedback_message
-    job = py_trees.blackboard.Blackboard.storage["/scan/reapproach"]
-    probes, retries = job["hole"]["probes"], job["hole"]["retries"]
-    assert retries[0] is None and all(r is not None for r in retries[1:])
-    centre = job["hole"]["centre"]
-    for (xy, _, _), (half, _, corner_z) in zip(probes[1:], retries[1:]):  # halfway to the middle, as deep
-        assert_allclose(half, 0.5 * (xy + centre), atol=1e-9)
-        assert corner_z <= 0.02
-    touched = probes[1][0]
-    tried = [centre, touched, retries[1][0]] + [xy for xy, _, _ in probes[2:]]
-    job.update(result="partly open", outcomes=["open", "touched"] + ["open"] * (len(tried) - 2),
-               tried=tried, reached=[0.015, 0.03] + [0.015] * (len(tried) - 2))
-    leaf.initialise()
-    ticks_until_done(h, 10)
-    assert leaf.ends["hole probe: partly open"] == 1
-    # what is left of the hole has its middle by the touch: not probed there till the pad has
-    # touched near it, it re-approaches the frontier instead
-    assert leaf.feedback_message.startswith("re-approaching the frontier"), leaf.feedback_message
-    rows, cols = np.nonzero(leaf.map.empty)
-    empty = leaf.map.centre_of(rows, cols)
-    assert len(empty) > 0.5 * len(job["hole"]["cells"])
-    d = np.linalg.norm(empty[:, None, :] - np.asarray(tried)[None, :, :], axis=2)
-    assert np.all(np.argmin(d, axis=1) != 1)  # none nearer the touch than every point found open
-    left = leaf.frontier_left()
-    assert left["untouched_in_valleys_m2"] + left["untouched_at_hole_rims_m2"] > 0.0
-
-
 @pytest.mark.parametrize("corner_mm, cleared", [(3.0, True), (18.0, False)])
 def test_the_band_along_an_open_hole_s_rim_leaves_the_estimate_where_the_corner_came_below_a_wall_at_the_tilt_limit(
         corner_mm, cleared):

@@ -89,54 +89,6 @@ def test_a_corner_that_touched_while_lowering_lifts_off_straight_up():
     assert np.linalg.norm(risen[:2] - touched[0][:2]) < 0.002   # along its normal: 7 mm aside
 
 
-def test_a_touch_by_the_edge_after_the_middle_was_open_is_tried_again_halfway_and_the_probe_goes_on():
-    """A hole wider than the pad (a partial probe) whose edge lies nearer the middle than the
-    map's on one side: the corner touches there, finds it open halfway to the middle, and probes
-    the other side too; a probe that is not partial ends at the touch."""
-    R = {yaw: pad_rotation((0.08, 0.08), yaw, math.radians(65)) for yaw in (0.0, math.pi)}
-    xs = (0.06, 0.10, 0.02)  # the middle, then an edge point either side
-    probes = [(np.array([x, 0.0]), R[math.pi if x > 0.06 else 0.0], 0.012) for x in xs]
-    retries = [None, (np.array([0.08, 0.0]), R[math.pi], 0.012), (np.array([0.04, 0.0]), R[0.0], 0.012)]
-    job = {"hole": {"probes": probes, "retries": retries, "cells": np.zeros((0, 2)), "centre": np.array([0.06, 0.0]),
-                    "partial": True},
-           "top_z": 0.06, "home": (HOME, np.array([0.0, 0.0, 1.0]))}
-    h, leaf = _harness(job)
-
-    def surface(T):  # the pad where it started, and surface 30 mm up beyond x = 90 mm
-        corner = lowest_corner(T, leaf.pad)
-        return np.linalg.norm(T[:3, 3] - HOME) < 1e-4 or (corner[0] > 0.09 and corner[2] <= 0.03)
-
-    status, T = fly(h, surface, max_ticks=40000)
-    assert status == Status.SUCCESS and job["result"] == "partly open"
-    assert job["outcomes"] == ["open", "touched", "open", "open"]
-    tried = np.array(job["tried"])
-    npt.assert_allclose(tried[[0, 2, 3], 0], [0.06, 0.08, 0.02], atol=1e-9)
-    npt.assert_allclose(tried[1], job["touched"][:2], atol=1e-9)  # the surface: where the pad touched
-    npt.assert_allclose(job["reached"][1], 0.03, atol=0.002)    # the corner's height then
-    npt.assert_allclose(T[:3, 3], HOME, atol=0.003)
-    job = {"hole": {**job["hole"], "partial": False}, "top_z": job["top_z"], "home": job["home"]}
-    h, leaf = _harness(job)
-    status, _ = fly(h, surface, max_ticks=40000)
-    assert status == Status.SUCCESS and job["result"] == "touched" and job["outcomes"] == ["open", "touched"]
-
-
-def test_a_pad_that_touches_once_its_corner_is_down_to_the_hole_s_floor_found_the_hole_open_there():
-    """Tilted corner first, the pad's body may meet the far side of a ring's hole while the
-    corner is already as deep as the planner's ``open_z``: open where the corner is."""
-    job = _job([0.005, 0.005])
-    job["hole"].update(open_z=0.02, partial=True)
-    h, leaf = _harness(job)
-
-    def body_on_far_side(T):  # touches once the corner is 15 mm up, at the first point only
-        corner = lowest_corner(T, leaf.pad)
-        return np.linalg.norm(T[:3, 3] - HOME) < 1e-4 or (corner[0] < 0.06 and corner[2] <= 0.015)
-
-    status, _ = fly(h, body_on_far_side, max_ticks=40000)
-    assert status == Status.SUCCESS and job["result"] == "partly open"
-    assert job["outcomes"][:2] == ["open", "touched"] and job["outcomes"][-1] == "open"
-    npt.assert_allclose(job["tried"][0], [0.05, 0.0], atol=1e-9)  # open at the corner's point
-
-
 def test_without_a_pending_probe_it_succeeds_at_once():
     h, _ = _harness(None)
     assert h.tick(make_features()) == Status.SUCCESS

@@ -23,8 +23,8 @@ from py_trees.common import Status
 from scipy import ndimage
 
 from tactile_bt import defaults
-from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, HOLE_RIM_M, OPEN, WRIST, parts_touching, unexplained
-from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, open_cells, probe_points, steep_rim_cells
+from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, WRIST, parts_touching, unexplained
+from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points, steep_rim_cells
 from tactile_bt.contacts.sweep_plan import END_INSIDE_M, SweepPlan, foot_runs, valley_sides
 from tactile_bt.contacts.untouched import untouched_beyond
 from tactile_bt.tree.behaviours.frontier_left import FrontierLeft
@@ -91,11 +91,8 @@ class FrontierJobs(FrontierLeft):
                                     "as for a re-approach: a valley the touched area encloses (a ring's hole) before "
                                     "any sweep, the others once no sweep is left to ask for. A hole wider than the pad "
                                     "(up to twice its width) that unexplained frontier faces is probed the same way, "
-                                    "before any sweep; where the corner touches there after it found the middle open, it "
-                                    "tries again halfway to the middle, and the cells nearer the points found open than "
-                                    "those touched are marked empty (a hole ``partly open``). A probe that touched surface "
-                                    "leaves its valley to be probed again once sliding has shrunk it to 80 % of its "
-                                    "area then.")
+                                    "before any sweep. A probe that touched surface leaves its valley to be probed "
+                                    "again once sliding has shrunk it to 80 % of its area then.")
     hole_floor_m = Parameter(0.02, bound=NON_NEGATIVE,
                              doc="A valley whose probes lowered the pad's corner to within this height (m) of the "
                                  "table touching nothing, at its middle and at points 6 mm inside its edge, is a "
@@ -214,57 +211,34 @@ class FrontierJobs(FrontierLeft):
             mask = self.map.valleys(width, channels=not enclosed)
         valleys = probe_points(self.map, mask, _HOLE_POINTS)
         valleys = [v for v in valleys if all(np.linalg.norm(v["centre"] - p["centre"]) > _HOLE_AGAIN_M
-                                             or (p["result"] in ("touched", "partly open")
-                                                 and v["area_m2"] <= _HOLE_SHRUNK * p["area_m2"])
-                                             for p in self._probed) and not self._touched_near(v["centre"])]
+                                             or (p["result"] == "touched" and v["area_m2"] <= _HOLE_SHRUNK * p["area_m2"])
+                                             for p in self._probed)]
         if not valleys:
             return None
         valley = min(valleys, key=lambda v: float(np.linalg.norm(v["centre"] - point[:2])))
         floor = self.table_z_m + self.table_clearance_m
-        probes, retries, near = [], [], self.pose[:3, :3]
+        probes, near = [], self.pose[:3, :3]
         deep = self.table_z_m + self.hole_floor_m
-
-        def lowered(xy: np.ndarray, enough: float, near: np.ndarray) -> tuple | None:
-            pose = corner_first(self.map, xy, self.pad.size_m, self.max_tilt_rad, _HOLE_CLEARANCE_M, floor, near,
-                                deep_enough_z=enough - _HOLE_CLEARANCE_M)
-            return (xy, pose[0], pose[1]) if pose is not None and pose[1] <= enough else None
-
         for k, point_xy in enumerate(valley["points"]):  # each pose deep enough turned as little as it can be from the one before
             for inwards in _HOLE_INWARDS:  # where the corner cannot go deep enough, a little nearer the middle
                 xy = point_xy + inwards * (valley["centre"] - point_xy)
                 enough = deep
                 if k and not inwards and not wide:  # under the rim of a valley the pad bridges: low enough to tell its wall
                     enough = max(deep, below_rim_z(self.map, xy, valley["inside_m"], self.max_tilt_rad))
-                probe = lowered(xy, enough, near)
-                if probe is not None:
-                    probes.append(probe)
-                    near = probe[1]
-                    # in a hole wider than the pad, where the corner touches, the same halfway to the
-                    # middle: the hole's edge lies between (see hole_probe)
-                    halfway = point_xy + 0.5 * (1.0 + inwards) * (valley["centre"] - point_xy)
-                    retries.append(lowered(halfway, deep, near) if k and wide else None)
+                pose = corner_first(self.map, xy, self.pad.size_m, self.max_tilt_rad, _HOLE_CLEARANCE_M, floor, near,
+                                    deep_enough_z=enough - _HOLE_CLEARANCE_M)
+                if pose is not None and pose[1] <= enough:
+                    probes.append((xy, pose[0], pose[1]))
+                    near = pose[0]
                     break
         if len(probes) < len(valley["points"]):
             return None  # the corner cannot go deep enough everywhere: the probe could not tell
         self._probed.append({"centre": valley["centre"], "area_m2": valley["area_m2"], "result": None})
-        job = {"hole": {"probes": probes, "retries": retries, "cells": valley["cells"], "centre": valley["centre"],
-                        "open_z": deep, "partial": wide},
+        job = {"hole": {"probes": probes, "cells": valley["cells"], "centre": valley["centre"]},
                "top_z": float(np.nanmax(self.map.z_max)),
                "home": (self.pose[:3, 3].copy(), -self.pose[:3, 2].copy())}
         write(self.reapproach_key, job)
         return job
-
-    def _touched_near(self, xy: np.ndarray) -> bool:
-        """Whether the corner of a probe that found its hole partly open touched surface within
-        :data:`_HOLE_AGAIN_M` of ``xy`` (world, m) where the pad has touched nothing since
-        (within :data:`HOLE_RIM_M` of it): a probe there would meet the same surface. (What is
-        left of such a hole has its middle by those points; a valley the probe found touched is
-        probed again once it has shrunk, :data:`_HOLE_SHRUNK`.)"""
-        for p in self._probed:
-            for point in p.get("touched", ()):
-                if np.linalg.norm(point - xy) <= _HOLE_AGAIN_M and not self.map.touched[self.map.disc(point, HOLE_RIM_M)].any():
-                    return True
-        return False
 
     def _asked_probe(self, point: np.ndarray, detail: str, wide: bool = False, enclosed: bool = False) -> bool:
         """Ask for a probe of a valley, or with ``wide`` of a hole wider than the pad, or with
@@ -327,30 +301,20 @@ class FrontierJobs(FrontierLeft):
                 return
             job["applied"] = True
         if "hole" in job:
-            outcomes = np.array(job.get("outcomes", ()), dtype=object)
-            tried = np.array(job.get("tried") or [probe[0] for probe in job["hole"]["probes"]][:len(outcomes)],
-                             dtype=float).reshape(-1, 2)
             for probed in self._probed:
                 if probed["result"] is None and np.allclose(probed["centre"], job["hole"]["centre"]):
                     probed["result"] = job["result"]
-                    if job["result"] == "partly open":  # where it met surface: no probe there till touched
-                        probed["touched"] = tried[outcomes == "touched"]
-            if job["result"] in ("open", "partly open"):  # the table seen through it: no surface to scan there
-                cells = job["hole"]["cells"]
-                if job["result"] == "partly open":  # the corner touched too: open nearer where it found it open
-                    cells = open_cells(cells, tried, outcomes == "open")
-                self.map.mark_empty(cells, opened=True)
+            if job["result"] == "open":  # the table seen through it: no surface to scan there
+                self.map.mark_empty(job["hole"]["cells"], opened=True)
                 # and where a corner came below the wall at the tilt limit by the rim, nothing the pad
                 # could lie on under it beyond the cells next to the touched edge: taken so along the
                 # rim as far as the pad spans (its half-width)
-                opened = np.flatnonzero(outcomes == "open")
-                if len(opened):
-                    xy = tried[opened]
+                opened = [k for k, outcome in enumerate(job.get("outcomes", ())) if outcome == "open"]
+                if opened:
+                    xy = np.array([job["hole"]["probes"][k][0] for k in opened])
                     z = np.array([job["reached"][k] for k in opened])
-                    steep = steep_rim_cells(self.map, xy, z, self.max_tilt_rad, 0.5 * min(self.pad.size_m))
-                    if job["result"] == "partly open":
-                        steep = open_cells(steep, tried, outcomes == "open")
-                    self.map.mark_empty(steep, opened=True)
+                    self.map.mark_empty(steep_rim_cells(self.map, xy, z, self.max_tilt_rad, 0.5 * min(self.pad.size_m)),
+                                        opened=True)
             self.ends[f"hole probe: {job['result']}"] += 1
             return
         if "sweep" in job:

@@ -17,19 +17,12 @@ in turn with the pad tilted corner first (turned a quarter turn about its normal
 square pad senses the same, where the arm's wrist would otherwise be wound near its limit, as
 ``reapproach`` does) and lowers it straight down, holding its orientation,
 until the corner reaches its height (the valley is open there: on to the next point), the pad
-touches, or comes into contact at all while lowering (the valley holds surface there, with the
-point under ``"touched"``), or the arm stops it (on to the next point). A touch ends the
-probe, ``"result": "touched"``, but in a job marked ``"partial"`` (a hole wider than the pad)
-after some point was found open: there the hole's edge lies nearer the middle than the map's, on
-a side the pad has not slid down yet; the touch is written down where the pad touched, the
-corner's point as open too if the corner was down to the job's ``"open_z"`` by then (the pad's
-body met the hole's far side), the point is tried once more halfway to the middle if the job
-holds a pose for it (``"retries"``, one per point or None), and the probe goes on to the next
-point. It writes where the corner went down (or the pad touched) under ``"tried"`` (world xy,
-m), each outcome under ``"outcomes"`` and the corner's lowest heights under ``"reached"``, and
-``"result": "open"`` when the pad touched nowhere and the arm got it to every point but one at
-most, and to two at least (``reach`` otherwise), ``"partly open"`` when a partial probe touched
-somewhere and found some point open. Then it goes back to the touched point it left, as
+touches, or comes into contact at all while lowering (the valley holds surface: ``"result":
+"touched"``, with the point under ``"touched"``)
+or the arm stops it (on to the next point). It writes each point's outcome under
+``"outcomes"`` and the corner's lowest heights under ``"reached"``, and ``"result": "open"``
+when the pad touched nowhere and the arm got it to every point but one at most, and to two at
+least (``reach`` otherwise). Then it goes back to the touched point it left, as
 ``reapproach`` does, lifting off straight up where the corner touched while lowering (the way it
 came down: along its tilted normal it may press the valley's other side); exploring goes on from there.
 
@@ -66,7 +59,6 @@ class HoleProbe(Reapproach):
     SUCCESS at once without one."""
 
     _rising = False  # lift straight up off the next contact (the corner touched while lowering)
-    _touch_xy: np.ndarray | None = None  # where the pad touched at the current point (world xy, m)
 
     def initialise(self) -> None:
         super().initialise()  # a re-approach job is reapproach's; this leaf passes it by
@@ -74,10 +66,8 @@ class HoleProbe(Reapproach):
         self._job = job if isinstance(job, dict) and "hole" in job and "result" not in job else None
         self._lowering = self._rising = False
         if self._job is not None:
-            self._job["reached"], self._job["outcomes"], self._job["tried"] = [], [], []
+            self._job["reached"], self._job["outcomes"] = [], []
             self._probe = 0
-            self._point = self._probes()[0]
-            self._retried = False
             self._start_probe()
 
     def describe(self) -> str:
@@ -95,14 +85,9 @@ class HoleProbe(Reapproach):
     def _probes(self) -> list:
         return self._job["hole"]["probes"]
 
-    def _retry(self) -> tuple | None:
-        """The current point's retry halfway to the valley's middle, if any."""
-        retries = self._job["hole"].get("retries") or ()
-        return retries[self._probe] if self._probe < len(retries) else None
-
     def _start_probe(self) -> None:
         """Route to above the current point, the pad tilted corner first."""
-        xy, R, corner_z = self._point
+        xy, R, corner_z = self._probes()[self._probe]
         self._R = self._unwound(np.asarray(R, dtype=float))  # a quarter turn back where the wrist is wound
         self._corner = np.array([xy[0], xy[1], corner_z])
         offset = lowest_corner(make_pose(self._R, np.zeros(3)), self.pad)  # from the pad's centre
@@ -112,58 +97,22 @@ class HoleProbe(Reapproach):
         self._going_home = False
         self._lowering = False
         self._route(start, self._R, top_z)
-        self._rising = False  # lifted straight up off a touch already, if it was one
-        self._touch_xy = None
         self._low = (math.inf, self.now)
 
-    def _note(self, outcome: str, xy: np.ndarray, reached: float) -> None:
-        """Write down an ``outcome`` at world ``xy`` (m), the corner down to ``reached`` (m)."""
-        self._job["outcomes"].append(outcome)
-        self._job["tried"].append(xy)
-        self._job["reached"].append(reached)
-
-    def _note_touch(self) -> np.ndarray:
-        point = super()._note_touch()
-        self._touch_xy = np.asarray(point[:2], dtype=float).copy()
-        return point
-
     def _finish(self, result: str) -> None:
-        """Note where the corner went down, how low, and the outcome; on to the next point
-        unless the pad touched. In a partial probe, a touch is noted at the touch's centre of
-        pressure (and the corner's point as open, if the corner had come down to the job's
-        ``open_z`` by then), and one after some point was found open is tried once more halfway
-        to the middle (the retry the job holds) and the probe goes on. At the end: ``open``
-        when every point was open but at most ``_UNREACHED`` the arm could not get to, ``reach``
-        when it could not get to more, ``partly open`` when a partial probe touched at some
-        points and found others open, ``touched`` otherwise where the pad touched."""
+        """Note the corner's height and the point's outcome; on to the next point unless the
+        pad touched. At the end: ``open`` when every point was open but at most
+        ``_UNREACHED`` the arm could not get to, ``reach`` when it could not get to more."""
         if not self._going_home and self._job is not None and "hole" in self._job:
-            outcomes = self._job["outcomes"]
-            reached = float(lowest_corner(self.pose, self.pad)[2])
-            here = np.asarray(self._point[0], dtype=float).copy()
-            partial = bool(self._job["hole"].get("partial", False))
-            if result == "touched" and partial:
-                # the corner down to the hole's floor before the pad touched (with its body,
-                # elsewhere): open where the corner is; the surface is where the pad touched
-                if reached <= float(self._job["hole"].get("open_z", -math.inf)):
-                    self._note("open", here, reached)
-                if self._touch_xy is not None:
-                    here = self._touch_xy
-            found_open = partial and "open" in outcomes  # before this one
-            self._note(result, here, reached)
-            if result == "touched" and found_open and not self._retried and self._retry() is not None:
-                self._retried, self._point = True, self._retry()
-                self._start_probe()
-                return
-            if (result != "touched" or found_open) and self._probe + 1 < len(self._probes()):
+            self._job["reached"].append(float(lowest_corner(self.pose, self.pad)[2]))
+            self._job["outcomes"].append(result)
+            if result != "touched" and self._probe + 1 < len(self._probes()):
                 self._probe += 1
-                self._retried, self._point = False, self._probes()[self._probe]
                 self._start_probe()
                 return
             self._lowering = False
-            if "touched" in outcomes:
-                result = "partly open" if partial and "open" in outcomes else "touched"
-            else:
-                opened = outcomes.count("open")
+            if result != "touched":
+                opened = self._job["outcomes"].count("open")
                 result = "open" if opened >= max(2, len(self._probes()) - _UNREACHED) else "reach"
         super()._finish(result)
 
