@@ -137,6 +137,25 @@ def test_an_interrupt_while_a_frame_is_buffered_leaves_a_readable_recording(tmp_
     np.testing.assert_allclose(timestamps, 0.004 * np.arange(5))
 
 
+def test_an_interrupt_while_a_chunk_is_written_leaves_each_frame_once(tmp_path):
+    path = tmp_path / "r.tbr"
+    values = np.random.default_rng(2).integers(0, 4096, (4, 16, 16), dtype=np.uint16)
+    with pytest.raises(KeyboardInterrupt):
+        with Recorder(path, chunk_frames=4, chunk_seconds=1e9) as rec:
+            sync = rec._sync
+
+            def interrupted_once():  # the chunk is in the file, not yet on disk
+                rec._sync = sync
+                raise KeyboardInterrupt
+
+            rec._sync = interrupted_once
+            for k, v in enumerate(values):  # the fourth frame fills the chunk and writes it
+                rec.write(TactileFrame(v, 0.004 * k, 1, k))
+    got, timestamps, _ = read_recording(path)  # written again on close, once
+    np.testing.assert_array_equal(got, values)
+    np.testing.assert_allclose(timestamps, 0.004 * np.arange(4))
+
+
 def test_replay_is_deterministic_and_paced(tmp_path):
     path = tmp_path / "r.tbr"
     values = make_recording(path, n=40)  # 0.156 s of recorded time

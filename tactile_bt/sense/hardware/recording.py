@@ -133,23 +133,37 @@ class Recorder:
             self.flush()
 
     def flush(self) -> None:
-        """Write the buffered frames as one chunk now (no-op when empty)."""
+        """Write the buffered frames as one chunk now (no-op when empty).
+
+        All or nothing: interrupted (a Ctrl-C, or SIGTERM turned into one) before the chunk is
+        on disk, the file is cut back to where the chunk began and the frames stay buffered, so
+        that :meth:`close` writes them once, neither lost nor twice."""
         n = len(self._frames)
         if n == 0 or self._file.closed:
             return
-        t, pose, dev, values, sid = zip(*self._frames)
-        payload = b"".join((
-            np.asarray(t, dtype="<f8").tobytes(),
-            np.asarray(pose, dtype="<f8").tobytes(),
-            np.asarray(dev, dtype="<u4").tobytes(),
-            np.asarray(values, dtype="<u2").tobytes(),
-            np.asarray(sid, dtype="u1").tobytes(),
-        ))
-        self._file.write(_CHUNK.pack(CHUNK_MAGIC, n, len(payload), zlib.crc32(payload)) + payload)
-        self._sync()
+        frames, self._frames = self._frames, []
+        start = None
+        try:
+            t, pose, dev, values, sid = zip(*frames)
+            payload = b"".join((
+                np.asarray(t, dtype="<f8").tobytes(),
+                np.asarray(pose, dtype="<f8").tobytes(),
+                np.asarray(dev, dtype="<u4").tobytes(),
+                np.asarray(values, dtype="<u2").tobytes(),
+                np.asarray(sid, dtype="u1").tobytes(),
+            ))
+            start = self._file.tell()
+            self._file.write(_CHUNK.pack(CHUNK_MAGIC, n, len(payload), zlib.crc32(payload)) + payload)
+            self._sync()
+        except BaseException:
+            self._frames = frames + self._frames
+            if start is not None:
+                self._file.seek(start)
+                self._file.truncate()
+            raise
         self.frames_written += n
         self.chunks_written += 1
-        self._reset()
+        self._started = time.monotonic()
 
     def close(self) -> None:
         """Write the last chunk and close the file (idempotent)."""
