@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-__all__ = ["SweepPlan", "foot_runs", "valley_sides", "END_INSIDE_M"]
+__all__ = ["SweepPlan", "foot_runs", "to_corners", "valley_sides", "END_INSIDE_M"]
 
 #: A sweep along a run starts and ends with the middle of the pad's border this far (m) inside
 #: the run's ends (or at its middle, on a run shorter than the border): the border passes over
@@ -111,6 +111,55 @@ def foot_runs(xy: np.ndarray, z: np.ndarray, normals: np.ndarray, foot_z: float)
                          "band_top_z": float(np.percentile(z[idx[part]], 90)), "cells": given[idx[part]]})
     runs.sort(key=lambda r: -r["length_m"])
     return runs
+
+
+def to_corners(runs: list[dict], most_m: float, others: list[dict] = ()) -> list[dict]:
+    """The runs of foot (:func:`foot_runs`), each end carried on along its foot line to the
+    corner where it meets another face's foot, where that corner lies at most ``most_m`` (m)
+    beyond the ends of both runs. The feet of ``others`` (runs swept before, whose frontier is
+    gone) count as other faces' too.
+
+    The frontier a run is made of stops short of a face's ends: near a ridge the cells' mean
+    normals mix the two faces', and the touched area rounds off towards the corner between two
+    feet, where the pad lying on either face cannot go. The corner is where the two feet's lines
+    cross. Beyond it along the line, on a base that is convex there, no object lies under the
+    border, so a sweep may run on to it.
+
+    Returns
+    -------
+    list of dict
+        The runs in the same order; where an end moved, a copy with ``start``, ``length_m`` and
+        ``centre`` updated (``cells`` as they were).
+    """
+    out = []
+    for run in runs:
+        length = float(run["length_m"])
+        start, along = np.asarray(run["start"], dtype=float), np.asarray(run["along"], dtype=float)
+        before, after = [], []  # corners beyond the run's start and its end, along it from its start (m)
+        for other in [*runs, *others]:
+            if other is run or float(np.asarray(other["out"]) @ np.asarray(run["out"])) >= math.cos(_SAME_FACE_RAD):
+                continue
+            o_start, o_along = np.asarray(other["start"], dtype=float), np.asarray(other["along"], dtype=float)
+            cross = float(along[0] * o_along[1] - along[1] * o_along[0])
+            if abs(cross) < 1e-9:  # parallel feet meet nowhere
+                continue
+            d = o_start - start
+            s = float(d[0] * o_along[1] - d[1] * o_along[0]) / cross  # the corner, along this run
+            t = float(d[0] * along[1] - d[1] * along[0]) / cross  # and along the other
+            if not -_SAME_LINE_M <= max(-t, t - float(other["length_m"])) <= most_m:
+                continue  # not at or beyond an end of the other, or too far beyond it
+            if -most_m <= s < 0.0:
+                before.append(s)
+            elif length < s <= length + most_m:
+                after.append(s)
+        s0, s1 = max(before, default=0.0), min(after, default=length)  # the nearest corner beyond each end
+        if s0 == 0.0 and s1 == length:
+            out.append(run)
+            continue
+        moved = dict(run, start=start + along * s0, length_m=s1 - s0)
+        moved["centre"] = moved["start"] + along * (s1 - s0) / 2
+        out.append(moved)
+    return out
 
 
 def valley_sides(m, mask: np.ndarray, step_m: float = 0.005) -> list[dict]:

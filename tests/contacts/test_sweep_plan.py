@@ -5,7 +5,7 @@ import math
 import numpy as np
 import numpy.testing as npt
 
-from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs
+from tactile_bt.contacts.sweep_plan import SweepPlan, foot_runs, to_corners
 
 SLOPE = math.radians(40)
 
@@ -99,3 +99,51 @@ def test_a_longer_run_of_a_swept_foot_is_swept_again_and_one_the_border_covered_
     assert plan.choose([longer], from_xy=np.zeros(2)) is None  # swept now
     other = foot_runs(*face_cells(rng, 210)[:3], 0.002)
     assert plan.choose(other, from_xy=np.zeros(2)) is other[0]
+
+
+def test_runs_are_carried_on_to_the_corners_where_the_feet_meet():
+    """The frontier on each face of a square pyramid stops 28 mm short of the base's corners:
+    every run is carried on to the corners, where its foot line meets its neighbours', and the
+    opposite face, parallel, moves nothing."""
+    rng = np.random.default_rng(5)
+    yaw = 20
+    faces = [face_cells(rng, yaw + 90 * k) for k in range(4)]
+    runs = foot_runs(np.vstack([f[0] for f in faces]), np.concatenate([f[1] for f in faces]),
+                     np.vstack([f[2] for f in faces]), 0.002)
+    assert len(runs) == 4
+    foot = 0.08 - 0.002 / math.tan(SLOPE)  # how far out the feet lie at 2 mm
+    corners = [foot * np.array([math.cos(a) - math.sin(a), math.sin(a) + math.cos(a)])
+               for a in np.radians(yaw + 90 * np.arange(4))]
+    for run, moved in zip(runs, to_corners(runs, most_m=0.04)):
+        assert run["length_m"] < 0.11
+        npt.assert_allclose(moved["length_m"], 2 * foot, atol=0.002)
+        ends = [moved["start"], moved["start"] + moved["along"] * moved["length_m"]]
+        for end in ends:
+            assert min(np.linalg.norm(end - c) for c in corners) < 0.002
+        npt.assert_allclose(moved["centre"], moved["start"] + moved["along"] * moved["length_m"] / 2)
+        assert moved["cells"] is run["cells"]
+
+
+def test_a_corner_farther_than_the_limit_or_a_lone_face_moves_no_end():
+    rng = np.random.default_rng(6)
+    a, b = face_cells(rng, 0), face_cells(rng, 90)
+    runs = foot_runs(np.vstack((a[0], b[0])), np.concatenate((a[1], b[1])), np.vstack((a[2], b[2])), 0.002)
+    assert to_corners(runs, most_m=0.01) == runs  # the corner lies 28 mm beyond both ends
+    moved = to_corners(runs, most_m=0.04)
+    assert all(m["length_m"] > r["length_m"] + 0.02 for m, r in zip(moved, runs))  # each moved one end
+    assert all(m["length_m"] < r["length_m"] + 0.04 for m, r in zip(moved, runs))  # and one only
+    (lone,) = foot_runs(*face_cells(rng, 45)[:3], 0.002)
+    assert to_corners([lone], most_m=0.08) == [lone]
+
+
+def test_a_foot_swept_before_still_marks_its_corners():
+    """Once a face's foot is swept its frontier is gone; carried on to the corners, its run
+    still tells its neighbour where their feet meet."""
+    rng = np.random.default_rng(7)
+    a, b = face_cells(rng, 0), face_cells(rng, 90)
+    runs = foot_runs(np.vstack((a[0], b[0])), np.concatenate((a[1], b[1])), np.vstack((a[2], b[2])), 0.002)
+    swept = to_corners(runs, most_m=0.04)[0]
+    alone = [runs[1]]
+    assert to_corners(alone, most_m=0.04) == alone
+    (moved,) = to_corners(alone, most_m=0.04, others=[swept])
+    npt.assert_allclose(moved["length_m"], to_corners(runs, most_m=0.04)[1]["length_m"], atol=1e-9)

@@ -25,7 +25,7 @@ from scipy import ndimage
 from tactile_bt import defaults
 from tactile_bt.contacts.frontier_map import EXPLAINING, GAP, OPEN, WRIST, parts_touching, unexplained
 from tactile_bt.contacts.hole_probe import below_rim_z, corner_first, probe_points, steep_rim_cells
-from tactile_bt.contacts.sweep_plan import END_INSIDE_M, SweepPlan, foot_runs, valley_sides
+from tactile_bt.contacts.sweep_plan import END_INSIDE_M, SweepPlan, foot_runs, to_corners, valley_sides
 from tactile_bt.contacts.untouched import untouched_beyond
 from tactile_bt.tree.behaviours.frontier_left import FrontierLeft
 from tactile_bt.tree.blackboard import read_or, write
@@ -179,7 +179,11 @@ class FrontierJobs(FrontierLeft):
         foot_z = self.table_z_m + self.foot_height_m
         run = None
         if self.below_m2 > 0 and math.isfinite(foot_z):
-            run = self.sweeps.choose(foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z), from_xy, take)
+            runs = foot_runs(self.face_xy, self.face_z, self.face_normals, foot_z)
+            # on to the corners where the faces' feet meet, those swept before included: the frontier
+            # stops short of them
+            swept = [r for r in self.sweeps.swept if r.get("kind", "foot") == "foot"]
+            run = self.sweeps.choose(to_corners(runs, min(self.pad.size_m), swept), from_xy, take)
         if run is None:  # every hole in the touched area up to twice the pad across, whether an attempt has
             # failed at its rim or not: a flat pad bridges the narrower, and the sides of the wider may be
             # too steep or too curved for it (the inside of a ring)
