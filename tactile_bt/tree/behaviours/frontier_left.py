@@ -64,9 +64,12 @@ class FrontierLeft:
                                  "the pad) add their area, and so does the surface taken to go on beyond the "
                                  "frontier the arm's reach explains (10 mm of it, less where it steepens past the "
                                  "tilt limit sooner).")
-    foot_height_m = Parameter(0.002, bound=POSITIVE,
+    foot_height_m = Parameter(0.0015, bound=POSITIVE,
                               doc="Height (m) above the table of the level pad sweeping a face's foot: its border "
-                                  "touches the face this high.")
+                                  "touches the face this high, this over the sine of the face's slope from the "
+                                  "table up the face. No lower than where the table guard's brake holds the corners "
+                                  "(``min_clearance_m`` plus ``brake_margin_m`` of ``table_clearance``, 1.5 mm in the "
+                                  "shipped tree): the brake would lift the pad.")
 
 
     def _classify(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
