@@ -208,6 +208,29 @@ class BorderSweep(Reapproach):
         self._waypoints = [lifted, (np.array([T[0, 3], T[1, 3], level_z + self.lift_m]), self._R, "levelling"),
                            (standoff, self._R, "gliding down to the foot")]
 
+    def _start(self, target: tuple, home: bool) -> None:
+        super()._start(target, home)
+        if home and self._job is not None and self._kind == "foot":
+            self._back_along_foot()
+
+    def _back_along_foot(self) -> None:
+        """On the way home from a foot, move back along it, lifted off, to the middle of the run
+        before rising over everything touched: a sweep carried on to a face's corner may end
+        where the arm cannot rise that high (near its base)."""
+        phases = [phase for _, _, phase in self._waypoints]
+        if "rising" not in phases:
+            return
+        k = phases.index("rising")
+        middle = 0.5 * float(self._job["sweep"]["length_m"])
+        here = self._first + float((self._border() - self._line) @ self._along)  # the border's middle, along the run
+        if abs(middle - here) < END_INSIDE_M:
+            return
+        shift = self._along * (middle - here)
+        lifted, R, _ = self._waypoints[k - 1] if k else (self.pose[:3, 3], self.pose[:3, :3], "")
+        rising, R_rising, _ = self._waypoints[k]
+        self._waypoints[k] = (rising + shift, R_rising, "rising")
+        self._waypoints.insert(k, (lifted + shift, R, "back along the foot"))
+
     def describe(self) -> str:
         if self._job is not None and self._sweeping and not self._going_home:
             return f"sweeping with the border, pass {self._pass + 1} of {self._passes}, {self._recorded} samples"
