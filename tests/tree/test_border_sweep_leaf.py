@@ -12,6 +12,7 @@ from tactile_bt.control.spatial import exp_twist, make_pose
 from tactile_bt.testing import LeafHarness, make_features
 from tactile_bt.tree.behaviours import BorderSweep
 from tactile_bt.tree.behaviours.border_sweep import foot_passes, level_facing
+from tactile_bt.tree.behaviours.table import lowest_corner
 
 DOWN = Rotation.from_euler("x", 180, degrees=True)
 
@@ -140,3 +141,27 @@ def test_a_foot_s_level_pad_is_turned_back_a_quarter_turn_where_the_wrist_is_wou
     least = Rotation.from_matrix(start[:3, :3].T @ level_facing(-out, start[:3, :3])).as_rotvec()[2]
     assert turns[math.radians(170)] == pytest.approx(least, abs=1e-9)
     assert turns[math.radians(10)] == pytest.approx(least + math.pi / 2, abs=math.radians(1))
+
+
+def test_a_foot_s_pad_that_cannot_go_home_takes_up_exploring_lying_on_the_face():
+    """Where the way back is closed (the point it left lies at the table), the pad goes onto the
+    35° face it swept, lying on it high enough up for its corners to clear the table, instead of
+    approaching from where it is: there its level border alone touches the face."""
+    slope = math.radians(35)
+    normal = np.array([math.sin(slope), 0.0, math.cos(slope)])
+    run = {"kind": "foot", "out": np.array([1.0, 0.0]), "along": np.array([0.0, 1.0]), "normal": normal,
+           "start": np.array([0.08, -0.05]), "length_m": 0.1, "centre": np.array([0.08, 0.0]), "band_top_z": 0.004}
+    leaf = BorderSweep()
+    h = LeafHarness(leaf, pose=make_pose(DOWN.as_matrix(), np.array([0.1, 0.0, 0.05])))
+    h.set("/setup/table_z_m", 0.0)
+    h.set("/scan/reapproach", {"sweep": run, "foot_z": 0.0015, "top_z": 0.06,
+                               "home": (np.array([0.2, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))})
+    h.tick(make_features())
+    leaf._finish("swept")
+    standoff, R, phase = leaf._waypoints[-1]
+    assert phase == "lowering to the standoff"
+    npt.assert_allclose(R[:, 2], -normal, atol=1e-9)  # lying on the face, sensor z into it
+    point = standoff - normal * leaf.standoff_m
+    assert abs(float((point - np.array([0.08, 0.0, 0.0015])) @ normal)) < 1e-9  # on the face's plane
+    assert lowest_corner(make_pose(R, point), leaf.pad)[2] >= leaf.table_clearance_m
+    assert point[2] <= 0.06  # no higher than everything touched

@@ -78,6 +78,9 @@ _BORDER_M = 0.005
 _REFIND_S = 1.0
 #: Most passes of a foot's sweep (a band higher than this many steps is swept only this far up).
 _MOST_FOOT_PASSES = 8
+#: A pad that cannot go home from a foot takes up exploring on the face with its lowest corner this
+#: much (m) higher than the re-approach's table clearance (see ``BorderSweep._above_band``).
+_ABOVE_M = 0.005
 
 
 def foot_passes(foot_z: float, band_top_z: float, normal: np.ndarray, step_m: float) -> tuple[int, float]:
@@ -210,8 +213,29 @@ class BorderSweep(Reapproach):
 
     def _start(self, target: tuple, home: bool) -> None:
         super()._start(target, home)
-        if home and self._job is not None and self._kind == "foot":
-            self._back_along_foot()
+        if not (home and self._job is not None and self._kind == "foot"):
+            return
+        if not self._waypoints:  # no way back to where it left (too near the table): onto the face instead
+            point, normal = self._above_band()
+            if not self._plan(point, normal, float(self._job.get("top_z", point[2]))):
+                return  # approach from where the pad is, as reapproach does
+        self._back_along_foot()
+
+    def _above_band(self) -> tuple[np.ndarray, np.ndarray]:
+        """A point (world, m) on the face swept, above the run's middle, and the face's normal:
+        where the pad, lying on the face, takes up exploring when it cannot go back to where it
+        left (a level pad whose border alone touches the face would roll onto it pressing far
+        harder than its target). As high up the face as the pad, lying on it with a corner
+        downhill, needs to keep clear of the table, and no higher than everything touched."""
+        run = self._job["sweep"]
+        n = self._normal
+        foot_z = float(self._job["foot_z"])
+        sin_tilt = math.hypot(n[0], n[1])
+        clear = foot_z + (self.pad.half_diagonal_m + self.corner_margin_m) * sin_tilt + self.table_clearance_m + _ABOVE_M
+        z = max(min(clear, float(self._job.get("top_z", clear))), float(run.get("band_top_z", foot_z)))
+        inwards = (z - foot_z) * n[2] / max(sin_tilt, 1e-9)  # up the face to that height (m, across)
+        xy = np.asarray(run["centre"], dtype=float) - np.asarray(run["out"], dtype=float) * inwards
+        return np.array([xy[0], xy[1], z]), n
 
     def _back_along_foot(self) -> None:
         """On the way home from a foot, move back along it, lifted off, to the middle of the run
