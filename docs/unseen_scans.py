@@ -7,11 +7,13 @@ SUCCESS, and the force bounds).
     python docs/unseen_scans.py --seeds 0 1 --only lumpy_soft torus_wide
     python docs/unseen_scans.py --seeds 0 1 2 --param "frontier_guidance.speed_mps=30 mm/s"
 
-The tree never sees these scenes when it is tuned: they stand in for a user's own objects. Each
+The tree never sees these scenes when it is tuned: they stand in for a user's own objects (the
+README's "Objects that are not shipped" names the few seeds that led to a change afterwards). Each
 is on the table with the LWR 4's base 0.39 m behind and 0.13 m above the pad's start, 3 mm above
 the object's top, as in the shipped scan scenes, and the region is that of its kind (the top
 face within 10° for a box, the upper side within 60° otherwise). The lumpy meshes are made as
-``sim/meshes/make_scan_stone.py`` makes the stone, with other sizes and bumps (another seed).
+``sim/meshes/make_scan_stone.py`` makes the stone, with other sizes and bumps (another seed); the
+pyramid on a hexagon is a mesh too (the scenes' ``pyramid`` is square).
 The exit status is 1 when any row is a false success or fails on force.
 """
 
@@ -131,16 +133,41 @@ OBJECTS = {
     "capsule_fat": _lying("capsule", 0.03, 0.10, 75, 1.0e5),
     "box_flat": _box((0.10, 0.07, 0.025), 15, 1.0e5),
     "cylinder_small": _lying("cylinder", 0.03, 0.12, -60, 5.0e4),
+    # added later: a ridged polyhedron that is not square (the scenes' pyramid is), as a mesh
+    "pyramid_hex": ("hexagonal pyramid, 140 mm across its corners, faces at 35°, 1.5e5 N/m, turned 10°", "pyramid_hex",
+                    60, "  - {type: mesh, path: pyramid_hex.ply, scale: 1.0, resolution: 0.001, position: [0, 0, 0], "
+                    "rpy_deg: [0, 0, 10], stiffness: 1.5e5, friction: 0.5}\n", 0.0),
 }
 #: The lumpy meshes: semi-axes (m) and seed of make_scan_stone.py's recipe.
 MESHES = {"lumpy_soft": ((0.054, 0.036, 0.028), 11), "lumpy_big": ((0.075, 0.05, 0.062), 3)}
+#: The pyramids on a regular polygon: sides, circumradius of the base (m) and the faces' slope (deg).
+POLYGON_PYRAMIDS = {"pyramid_hex": (6, 0.07, 35.0)}
 #: A scene with a goal of its own, as docs/exploration_scenes.py has for the shipped groove.
 COVERAGE_OF = {"unseen_groove_narrow": 0.90, "unseen_groove_shallow": 0.90, "unseen_groove_mid": 0.90,
                "unseen_groove_deep": 0.90}
 
 
+def _polygon_pyramid(sides: int, radius_m: float, slope_deg: float):
+    """A pyramid standing on the regular polygon of ``sides`` corners ``radius_m`` (m) from its
+    middle, its faces ``slope_deg`` steep (a closed ``trimesh.Trimesh``, base at z = 0)."""
+    import numpy as np
+    import trimesh
+
+    angles = 2 * np.pi * np.arange(sides) / sides
+    base = np.column_stack((radius_m * np.cos(angles), radius_m * np.sin(angles), np.zeros(sides)))
+    height = radius_m * math.cos(math.pi / sides) * math.tan(math.radians(slope_deg))
+    vertices = np.vstack((base, [[0.0, 0.0, height], [0.0, 0.0, 0.0]]))
+    faces = [[k, (k + 1) % sides, sides] for k in range(sides)] + [[(k + 1) % sides, k, sides + 1] for k in range(sides)]
+    return trimesh.Trimesh(vertices, faces, process=True)
+
+
 def _make_mesh(name: str, folder: Path) -> float:
-    """Write the lumpy mesh ``name`` into ``folder``; its top height (m)."""
+    """Write the mesh ``name`` (a lumpy mesh or a pyramid on a polygon) into ``folder``; its top
+    height (m)."""
+    if name in POLYGON_PYRAMIDS:
+        mesh = _polygon_pyramid(*POLYGON_PYRAMIDS[name])
+        mesh.export(folder / f"{name}.ply")
+        return float(mesh.bounds[1][2])
     spec = importlib.util.spec_from_file_location("make_scan_stone", ROOT / "sim" / "meshes" / "make_scan_stone.py")
     recipe = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(recipe)
