@@ -34,7 +34,9 @@ estimated normal. At the end, or when the surface ends under the border (no cont
 ``lost_s``), it writes ``"result": "swept"`` (``reach`` when the arm could not get there,
 ``nothing`` when no surface was found, ``tilt`` when a hollow needs the pad steeper than
 ``max_tilt_rad``, ``body`` when a level pad's body touched instead of its border) and goes back
-to the touched point it left, as ``reapproach`` does; exploring goes on from there.
+to the touched point it left, as ``reapproach`` does; exploring goes on from there. From a foot it
+first moves back along it to the run's middle, and where the way back is closed (the point lies
+too near the table) it goes onto the face it swept instead, lying on it clear of the table.
 
 It belongs beside ``reapproach`` in the sequence before ``touch``: each leaf carries out its
 own kind of job and lets the other pass.
