@@ -123,23 +123,30 @@ def extract(image, threshold=defaults.CONTACT_THRESHOLD_N, method="moments", pad
     )
 
 
-def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:
-    """Where an elongated contact crosses the pad's centre, by numpy on the whole image."""
+def local_contact_point(features: ContactFeatures, window_px: float = 12.0, degree: int = 3) -> np.ndarray:
+    """Where an elongated contact crosses the pad's centre, by numpy on the whole image: the
+    weighted least-squares polynomial of ``degree`` across the major axis (``numpy.linalg.lstsq``
+    on the design matrix), lowered while it is rank-deficient, taken where the axis passes
+    closest to the pad centre."""
     alpha = features.orientation
     if not features.in_contact or alpha != alpha or features.image is None:
         return features.cop_px
-    shape = features.mask.shape
-    _, basis_cop, _ = _basis(shape)
     ux, uy = math.cos(alpha), math.sin(alpha)
     cx, cy = features.cop_px.tolist()
     px, py = features.pad.centre_px
     centre_along = (px - cx) * ux + (py - cy) * uy
-    ys, xs = np.divmod(np.arange(shape[0] * shape[1], dtype=float), shape[1])
-    along = xs * ux + ys * uy - (cx * ux + cy * uy + centre_along)
-    window = 1.0 - np.abs(along) * (1.0 / window_px)
-    np.maximum(window, 0.0, out=window)
-    m = ((features.image * features.mask).ravel() * window) @ basis_cop
-    total, sx, sy = m.tolist()
-    if not total > 0.0:
+    ox, oy = cx + centre_along * ux, cy + centre_along * uy
+    ys, xs = np.nonzero(features.mask)
+    t = ((xs - ox) * ux + (ys - oy) * uy) / window_px
+    d = (ys - oy) * ux - (xs - ox) * uy
+    w = features.image[ys, xs] * np.maximum(1.0 - np.abs(t), 0.0)
+    keep = w > 0
+    if not keep.any():
         return features.cop_px
-    return np.array((sx / total, sy / total))
+    t, d, root = t[keep], d[keep], np.sqrt(w[keep])
+    for n in range(degree + 1, 0, -1):
+        design = np.vander(t, n, increasing=True) * root[:, None]
+        coef, _, rank, _ = np.linalg.lstsq(design, d * root, rcond=None)
+        if rank == n:
+            return np.array((ox - coef[0] * uy, oy + coef[0] * ux))
+    return features.cop_px

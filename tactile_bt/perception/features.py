@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile_bt import defaults
-from tactile_bt.perception.kernels import largest_region, windowed_centroid
+from tactile_bt.perception.kernels import largest_region, line_fit_offset, windowed_line_sums
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = [
@@ -55,6 +55,10 @@ __all__ = [
     "hough_orientation",
     "wrap_half_pi",
     "MIN_ANISOTROPY",
+    "LOCAL_WINDOW_PX",
+    "LOCAL_FIT_DEGREE",
+    "local_contact_point",
+    "line_spans_window",
     "METHODS",
     "HOUGH_LEVELS",
     "HOUGH_STEP_DEG",
@@ -63,6 +67,12 @@ __all__ = [
 
 #: Minimum anisotropy ``(l1 - l2) / (l1 + l2)`` of the region's covariance for an orientation.
 MIN_ANISOTROPY: float = 0.2
+#: Half-width (tactels) of the window along a line of :func:`local_contact_point`.
+LOCAL_WINDOW_PX: float = 12.0
+#: Degree of the polynomial :func:`local_contact_point` fits across a line.
+LOCAL_FIT_DEGREE: int = 3
+#: A pivot of the fit's Cholesky solve at most this share of its diagonal entry is singular.
+_MIN_PIVOT = 1e-9
 #: Accepted values of the ``method`` argument of :func:`extract`.
 METHODS = ("moments", "hough", None)
 
@@ -402,15 +412,27 @@ def extract(
                            max(others, 0.0), loaded - area, others_cop)
 
 
-def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np.ndarray:
+def local_contact_point(features: ContactFeatures, window_px: float = LOCAL_WINDOW_PX,
+                        degree: int = LOCAL_FIT_DEGREE) -> np.ndarray:
     """Where an elongated contact crosses the pad's centre: ``[x, y]`` in tactels.
 
     The COP of a curved line contact (a bent cable) lies on the chord, off the line by about
     ``s² / (6 R)`` for a visible half-length ``s`` and radius of curvature ``R`` (2.7 mm for
-    s = 40 mm, R = 100 mm). This estimate weights the region's force with a triangular window of
-    half-width ``window_px`` along the major axis, centred where the axis passes closest to the
-    pad centre, which shrinks that bias by ``(window / s)²``. Without a defined orientation it
-    is the COP.
+    s = 40 mm, R = 100 mm). This estimate fits the line's centre across its major axis as a
+    polynomial of ``degree`` along it, weighted by the region's force and a triangular window of
+    half-width ``window_px`` centred where the axis passes closest to the pad centre, and takes
+    the fit there: the chord's bias goes with the curvature the polynomial follows.
+
+    A wide window matters for a line thinner than a tactel (a 2 mm cable on 5 mm tactels):
+    each row's centroid then sits towards the nearest tactel centre (by up to 0.3 tactel in the
+    simulated sensor), an error a centroid of a few rows keeps; where the line runs across
+    columns that error changes sign from row to row, and a fit over many rows averages it out.
+    On a tight bend the wide cubic follows the curve less closely than a narrow window (the
+    README's cable table, "How the path error is measured", gives both).
+
+    With fewer distinct positions along the axis than the polynomial needs, the degree drops
+    (down to 0: the windowed centroid across the axis). Without a defined orientation it is the
+    COP.
 
     Parameters
     ----------
@@ -418,6 +440,8 @@ def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np
         Features with ``image`` and, for the local estimate, a finite ``orientation``.
     window_px : float
         Half-width of the window along the major axis (tactels).
+    degree : int
+        Degree of the polynomial (0 to 3).
     """
     alpha = features.orientation
     if not features.in_contact or alpha != alpha or features.image is None:
@@ -428,10 +452,12 @@ def local_contact_point(features: ContactFeatures, window_px: float = 3.0) -> np
         image = np.array(image, dtype=float, order="C")
     if not (mask.flags.c_contiguous and mask.flags.writeable and mask.dtype == np.bool_):
         mask = np.array(mask, dtype=bool, order="C")
-    total, sx, sy = windowed_centroid(image, mask, ux, uy, cx * ux + cy * uy + centre_along, 1.0 / window_px)
-    if not total > 0.0:
+    ox, oy = cx + centre_along * ux, cy + centre_along * uy
+    sums = windowed_line_sums(image, mask, ux, uy, ox, oy, 1.0 / window_px)
+    across = line_fit_offset(sums, int(degree), _MIN_PIVOT)
+    if across != across:
         return features.cop_px
-    return np.array((sx / total, sy / total))
+    return np.array((ox - across * uy, oy + across * ux))
 
 
 def line_spans_window(features: ContactFeatures, window_px: float = 3.0) -> bool:

@@ -1,14 +1,15 @@
 """Compiled loops of the feature extraction on one small force image (numba, nopython).
 
-Two kernels, each a few passes over the ``rows × cols`` tactels without a temporary array,
+Kernels, each a few passes over the ``rows × cols`` tactels without a temporary array,
 where numpy would spend most of its time in per-call overhead on 256 values:
 
 * :func:`largest_region` — sanitise the image, label the regions above the threshold with
   8-connectivity, pick the largest (ties: larger force, then the one met first in row-major
   order, as ``scipy.ndimage.label`` numbers them), or the one that comes nearest a given point,
   and sum its moments ``[1, x, y, x², xy, y²]``;
-* :func:`windowed_centroid` — the force-weighted centroid of a region under a triangular window
-  along an axis (the local contact point of an elongated contact).
+* :func:`windowed_line_sums` — the sums of a force-weighted polynomial fit of an elongated
+  region's centre across its axis under a triangular window along it (the local contact
+  point of an elongated contact), and :func:`line_fit_offset`, the solve of that fit.
 
 They are compiled on first use and cached on disk (``cache=True``: a fresh install pays the
 compile once). Arguments must have the types the callers in :mod:`tactile_bt.perception.features`
@@ -24,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["largest_region", "windowed_centroid"]
+__all__ = ["largest_region", "windowed_line_sums", "line_fit_offset"]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -174,9 +175,13 @@ def largest_region(img, threshold, limit, clean, mask, work, near_x, near_y, alo
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def windowed_centroid(image, mask, ux, uy, offset, inv_half_width):
-    """Sums ``(w, w x, w y)`` of the region's force times ``max(0, 1 - |x ux + y uy - offset| *
-    inv_half_width)``: a triangular window across the line ``x ux + y uy = offset``.
+def windowed_line_sums(image, mask, ux, uy, ox, oy, inv_half_width):
+    """Weighted sums of a line fit across an axis: with ``t = ((x - ox) ux + (y - oy) uy) *
+    inv_half_width`` the position along the axis from the window's centre ``(ox, oy)`` (in
+    half-widths), ``d = (y - oy) ux - (x - ox) uy`` the distance across it (tactels) and the
+    weight ``w`` the region's force times ``max(0, 1 - |t|)`` (a triangular window), the sums
+    of ``w t^k`` for ``k = 0 … 6`` and of ``w d t^k`` for ``k = 0 … 3``: the normal equations of
+    a weighted polynomial ``d(t)`` of degree up to 3.
 
     Parameters
     ----------
@@ -185,23 +190,76 @@ def windowed_centroid(image, mask, ux, uy, offset, inv_half_width):
     mask : bool[:, ::1]
         The region.
     ux, uy : float
-        Unit vector along the window's axis (x = column, y = row).
-    offset : float
-        Position along the axis of the window's centre (tactels).
+        Unit vector along the axis (x = column, y = row).
+    ox, oy : float
+        The window's centre on the axis (tactels).
     inv_half_width : float
         One over the window's half-width (1 / tactels).
+
+    Returns
+    -------
+    float64[11]
+        ``[Σw, Σw t, …, Σw t^6, Σw d, Σw d t, Σw d t², Σw d t³]``.
     """
     rows, cols = image.shape
-    total = sx = sy = 0.0
+    out = np.zeros(11)
     for i in range(rows):
-        y = float(i)
+        dy = float(i) - oy
         for j in range(cols):
             if mask[i, j]:
-                x = float(j)
-                w = 1.0 - abs(x * ux + y * uy - offset) * inv_half_width
+                dx = float(j) - ox
+                t = (dx * ux + dy * uy) * inv_half_width
+                w = 1.0 - abs(t)
                 if w > 0.0:
                     v = image[i, j] * w
-                    total += v
-                    sx += v * x
-                    sy += v * y
-    return total, sx, sy
+                    d = dy * ux - dx * uy
+                    for k in range(7):
+                        out[k] += v
+                        if k < 4:
+                            out[7 + k] += v * d
+                        v *= t
+    return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def line_fit_offset(sums, degree, min_pivot):
+    """The fitted distance across the axis at the window's centre (tactels) from the sums of
+    :func:`windowed_line_sums`: the constant term of the weighted least-squares polynomial of
+    ``degree`` (0 to 3), by a Cholesky solve of its normal equations. While a pivot falls to
+    ``min_pivot`` of its diagonal entry or below (fewer distinct positions along the axis than
+    the polynomial needs) the degree drops by one; NaN without weight."""
+    if not sums[0] > 0.0:
+        return np.nan
+    low = np.zeros((4, 4))
+    y = np.zeros(4)
+    n = min(max(degree, 0), 3) + 1
+    while n > 0:
+        ok = True
+        for i in range(n):
+            for j in range(i + 1):
+                acc = sums[i + j]
+                for k in range(j):
+                    acc -= low[i, k] * low[j, k]
+                if i == j:
+                    if not acc > min_pivot * sums[2 * i]:
+                        ok = False
+                        break
+                    low[i, i] = np.sqrt(acc)
+                else:
+                    low[i, j] = acc / low[j, j]
+            if not ok:
+                break
+        if ok:
+            for i in range(n):  # forward: L y = b
+                acc = sums[7 + i]
+                for k in range(i):
+                    acc -= low[i, k] * y[k]
+                y[i] = acc / low[i, i]
+            for i in range(n - 1, -1, -1):  # back: Lᵀ x = y, in place
+                acc = y[i]
+                for k in range(i + 1, n):
+                    acc -= low[k, i] * y[k]
+                y[i] = acc / low[i, i]
+            return y[0]
+        n -= 1
+    return np.nan

@@ -69,7 +69,8 @@ def _signatures(group: str) -> list:
 
         mask = types.Array(types.boolean, 2, "C")
         return [(pk.largest_region, (f2, f, f, f2, mask, types.Array(types.int32, 1, "C"), f, f, f, f, f)),
-                (pk.windowed_centroid, (f2, mask, f, f, f, f))]
+                (pk.windowed_line_sums, (f2, mask, f, f, f, f, f)),
+                (pk.line_fit_offset, (f1, i, f))]
     if group == "pad":
         from tactile_bt.sim import kernels as sk
 
