@@ -462,12 +462,12 @@ def local_contact_point(features: ContactFeatures, window_px: float = LOCAL_WIND
 
 def line_spans_window(features: ContactFeatures, window_px: float = 3.0) -> bool:
     """Whether an elongated contact reaches ``window_px`` (tactels) beyond where its axis
-    passes closest to the pad's centre, both ways along the axis: then
-    :func:`local_contact_point` weighs a whole window of it. Near the line's end (a cable's tip
-    under the pad) the window is cut short and its centroid slides onto the tip, up to the
+    passes closest to the pad's centre, both ways along the axis: then the fit of
+    :func:`local_contact_point` holds the line on both sides of that crossing. Near the line's
+    end (a cable's tip under the pad) it does not, and the point leans onto the tip, up to the
     cable's radius and the foam's spread beyond the end of its centreline. False without a
-    contact or an orientation; True without an image (the local point is then the COP, with no
-    window to cut short)."""
+    contact or an orientation; True without an image (the local point is then the COP, with
+    nothing to cut short)."""
     alpha = features.orientation
     if not features.in_contact or alpha != alpha:
         return False
