@@ -14,7 +14,8 @@ import numpy as np
 from scipy import ndimage
 
 from tactile_bt import defaults
-from tactile_bt.perception.features import MIN_ANISOTROPY, ContactFeatures, hough_orientation
+from tactile_bt.perception.features import (LOCAL_FIT_DEGREE, LOCAL_WINDOW_PX, MIN_ANISOTROPY, ContactFeatures,
+                                            hough_orientation)
 from tactile_bt.sense.geometry import PadGeometry
 
 __all__ = ["extract", "local_contact_point", "central_moments"]
@@ -123,7 +124,8 @@ def extract(image, threshold=defaults.CONTACT_THRESHOLD_N, method="moments", pad
     )
 
 
-def local_contact_point(features: ContactFeatures, window_px: float = 12.0, degree: int = 3) -> np.ndarray:
+def local_contact_point(features: ContactFeatures, window_px: float = LOCAL_WINDOW_PX,
+                        degree: int = LOCAL_FIT_DEGREE) -> np.ndarray:
     """Where an elongated contact crosses the pad's centre, by numpy on the whole image: the
     weighted least-squares polynomial of ``degree`` across the major axis (``numpy.linalg.lstsq``
     on the design matrix), lowered while it is rank-deficient, taken where the axis passes
